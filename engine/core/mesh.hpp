@@ -1,0 +1,32 @@
+// The linear triangle surface mesh every stage starts from.
+#pragma once
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace hocurve {
+
+/// A named physical group of surface entities, as in Gmsh (dimension 2 only).
+struct PhysicalGroup {
+  int tag = 0;
+  std::string name;              ///< may be empty
+  std::vector<int> entities;     ///< surface entity tags that belong to the group
+};
+
+/// Linear triangle surface mesh, libigl style: V is #V x 3 positions, F is #F x 3 vertex
+/// indices (0-based, counter-clockwise seen from outside when orientable).
+/// face_entity holds the Gmsh surface entity tag of each face (empty: all faces in entity 1),
+/// so outputs keep the input's entities and physical groups.
+struct Mesh {
+  Eigen::MatrixXd V;
+  Eigen::MatrixXi F;
+  Eigen::VectorXi face_entity;
+  std::vector<PhysicalGroup> physicals;
+
+  int num_vertices() const { return static_cast<int>(V.rows()); }
+  int num_faces() const { return static_cast<int>(F.rows()); }
+  /// Entity tag of face f (1 when the mesh carries no entities).
+  int entity_of(int f) const { return face_entity.size() ? face_entity[f] : 1; }
+};
+
+}  // namespace hocurve

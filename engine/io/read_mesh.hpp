@@ -1,0 +1,35 @@
+// Reading linear triangle surface meshes from bytes or files, format detected from content.
+#pragma once
+#include "engine/core/mesh.hpp"
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace hocurve {
+
+struct ReadOptions {
+  bool weld = true;  ///< STL: merge exactly repeated vertex positions (STL stores each facet's own)
+};
+
+struct ReadReport {
+  std::string format;            ///< "stl-ascii", "stl-binary", "obj", "ply-ascii", "ply-binary", "off", "msh2", "msh4"
+  bool gzip = false;             ///< the input was gzip-compressed
+  long long facets_read = 0;     ///< triangles read (after fan-splitting polygons)
+  long long welded_vertices = 0; ///< repeated positions merged (STL)
+  std::vector<std::string> warnings;  ///< non-fatal problems, each naming where
+};
+
+struct ReadResult {
+  Mesh mesh;
+  ReadReport report;
+};
+
+/// Reads a mesh from memory. `name` is used in messages (and as a weak format hint).
+/// Throws InputError (what, where, why) on anything it cannot read; never returns a partial mesh.
+ReadResult read_mesh_bytes(std::string_view bytes, const std::string& name, const ReadOptions& opt = {});
+
+/// Reads a mesh file (any supported format, optionally gzip-compressed).
+ReadResult read_mesh_file(const std::string& path, const ReadOptions& opt = {});
+
+}  // namespace hocurve

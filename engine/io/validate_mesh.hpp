@@ -1,0 +1,31 @@
+// Topology and geometry checks on a freshly read mesh, with precise messages and safe repairs.
+#pragma once
+#include "engine/core/mesh.hpp"
+
+#include <string>
+#include <vector>
+
+namespace hocurve {
+
+struct ValidateOptions {
+  bool fix_orientation = true;          ///< flip faces to make each manifold component consistent
+  bool drop_duplicate_faces = true;     ///< remove faces that repeat another face's three vertices
+  bool drop_degenerate_faces = true;    ///< remove faces with a repeated vertex index
+  bool drop_unused_vertices = true;     ///< compact V to the vertices faces use
+};
+
+/// What validate_mesh found and did. Fatal problems throw InputError instead.
+struct ValidateReport {
+  long long duplicate_faces = 0, degenerate_faces = 0, zero_area_faces = 0, unused_vertices = 0;
+  long long boundary_edges = 0, nonmanifold_edges = 0, nonmanifold_vertices = 0;
+  long long flipped_faces = 0;          ///< faces re-oriented for consistency
+  long long non_orientable_components = 0;
+  int components = 0;
+  std::vector<std::string> warnings;    ///< one line each, naming face/vertex indices
+};
+
+/// Checks mesh (finite coordinates, indices in range, non-empty) and repairs what can be
+/// repaired safely (per options). Throws InputError for what cannot be used.
+ValidateReport validate_mesh(Mesh& mesh, const ValidateOptions& opt = {});
+
+}  // namespace hocurve
