@@ -1,0 +1,173 @@
+// Reference nodes against Gmsh's own element tables, and the Lobatto distribution's properties.
+#include "engine/highorder/reference_nodes.hpp"
+
+#include "engine/core/error.hpp"
+
+#include <doctest/doctest.h>
+#include <gmsh.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+using namespace hocurve;
+
+namespace {
+
+struct GmshSession {
+  GmshSession() {
+    gmsh::initialize();
+    gmsh::option::setNumber("General.Terminal", 0);
+  }
+  ~GmshSession() { gmsh::finalize(); }
+};
+
+// Gmsh's reference coordinates of an element type, #nodes x dim.
+Eigen::MatrixXd gmsh_reference(int type, int dim, int& order, int& nnodes) {
+  std::string name;
+  int edim, nprim;
+  std::vector<double> coord;
+  gmsh::model::mesh::getElementProperties(type, name, edim, order, nnodes, coord, nprim);
+  REQUIRE(edim == dim);
+  REQUIRE(coord.size() == static_cast<size_t>(nnodes * dim));
+  Eigen::MatrixXd X(nnodes, dim);
+  for (int k = 0; k < nnodes; ++k)
+    for (int d = 0; d < dim; ++d) X(k, d) = coord[k * dim + d];
+  return X;
+}
+
+// The 1D Legendre derivative P'_p(x) computed independently (explicit power-series sum), to
+// verify the GLL points are its roots.
+double legendre_derivative(int p, double x) {
+  // P_p(x) = 2^-p sum_k (-1)^k C(p,k) C(2p-2k,p) x^(p-2k)
+  double s = 0;
+  auto binom = [](int n, int k) {
+    double r = 1;
+    for (int i = 1; i <= k; ++i) r = r * (n - k + i) / i;
+    return r;
+  };
+  for (int k = 0; 2 * k <= p; ++k) {
+    const int e = p - 2 * k;
+    if (e == 0) continue;
+    s += ((k % 2) ? -1.0 : 1.0) * binom(p, k) * binom(2 * p - 2 * k, p) * e * std::pow(x, e - 1);
+  }
+  return s / std::pow(2.0, p);
+}
+
+}  // namespace
+
+TEST_CASE("Gmsh element types and node counts") {
+  GmshSession g;
+  for (int p = 1; p <= 10; ++p) {
+    CHECK(gmsh_triangle_type(p) == gmsh::model::mesh::getElementType("Triangle", p));
+    CHECK(gmsh_tet_type(p) == gmsh::model::mesh::getElementType("Tetrahedron", p));
+    CHECK(triangle_node_count(p) == triangle_lattice(p).rows());
+    CHECK(tet_node_count(p) == tet_lattice(p).rows());
+  }
+  CHECK_THROWS_AS(gmsh_triangle_type(0), UsageError);
+  CHECK_THROWS_AS(triangle_lattice(11), UsageError);
+  CHECK(parse_node_distribution("lobatto") == NodeDistribution::Lobatto);
+  CHECK(std::string(to_string(NodeDistribution::Equispaced)) == "equispaced");
+  CHECK_THROWS_AS(parse_node_distribution("chebyshev"), UsageError);
+}
+
+TEST_CASE("triangle and tet tables equal Gmsh's reference coordinates") {
+  GmshSession g;
+  for (int p = 1; p <= 10; ++p) {
+    int order, n;
+    const Eigen::MatrixXd G = gmsh_reference(gmsh_triangle_type(p), 2, order, n);
+    CHECK(order == p);
+    const Eigen::MatrixXd X = triangle_reference_nodes(p);
+    REQUIRE(X.rows() == n);
+    CHECK((X - G).cwiseAbs().maxCoeff() < 1e-14);
+    const Eigen::MatrixXi L = triangle_lattice(p);
+    CHECK((L.cast<double>() / p - G).cwiseAbs().maxCoeff() < 1e-14);
+  }
+  for (int p = 1; p <= 10; ++p) {
+    int order, n;
+    const Eigen::MatrixXd G = gmsh_reference(gmsh_tet_type(p), 3, order, n);
+    CHECK(order == p);
+    const Eigen::MatrixXd X = tet_reference_nodes(p);
+    REQUIRE(X.rows() == n);
+    CAPTURE(p);
+    CHECK((X - G).cwiseAbs().maxCoeff() < 1e-14);
+  }
+}
+
+TEST_CASE("Lobatto line nodes are Gauss-Lobatto-Legendre points") {
+  for (int p = 1; p <= 10; ++p) {
+    const Eigen::VectorXd t = line_reference_nodes(p, NodeDistribution::Lobatto);
+    REQUIRE(t.size() == p + 1);
+    CHECK(t[0] == 0.0);
+    CHECK(t[p] == 1.0);
+    for (int k = 0; k < p; ++k) CHECK(t[k] < t[k + 1]);
+    for (int k = 0; k <= p; ++k) CHECK(t[k] + t[p - k] == doctest::Approx(1.0).epsilon(1e-15));
+    for (int k = 1; k < p; ++k) CHECK(std::abs(legendre_derivative(p, 2 * t[k] - 1)) < 1e-11);
+    // p+1 GLL points integrate polynomials of degree 2p-1 exactly with the weights
+    // 2 / (p(p+1) P_p(x)^2); here we check instead that interior points are distinct roots.
+  }
+  // Known closed forms: p = 3 -> +-1/sqrt(5); p = 4 -> 0, +-sqrt(3/7).
+  const Eigen::VectorXd t3 = line_reference_nodes(3, NodeDistribution::Lobatto);
+  CHECK(2 * t3[1] - 1 == doctest::Approx(-1 / std::sqrt(5.0)).epsilon(1e-15));
+  const Eigen::VectorXd t4 = line_reference_nodes(4, NodeDistribution::Lobatto);
+  CHECK(2 * t4[2] - 1 == doctest::Approx(0.0));
+  CHECK(2 * t4[3] - 1 == doctest::Approx(std::sqrt(3.0 / 7.0)).epsilon(1e-15));
+  // Equispaced line.
+  const Eigen::VectorXd e = line_reference_nodes(4);
+  for (int k = 0; k <= 4; ++k) CHECK(e[k] == k / 4.0);
+}
+
+TEST_CASE("Lobatto triangle nodes") {
+  for (int p = 1; p <= 10; ++p) {
+    CAPTURE(p);
+    const Eigen::MatrixXd X = triangle_reference_nodes(p, NodeDistribution::Lobatto);
+    const Eigen::MatrixXi L = triangle_lattice(p);
+    const Eigen::VectorXd t = line_reference_nodes(p, NodeDistribution::Lobatto);
+    REQUIRE(X.rows() == L.rows());
+    if (p <= 2) CHECK((X - triangle_reference_nodes(p)).cwiseAbs().maxCoeff() == 0.0);
+    const double A[3][2] = {{0, 0}, {1, 0}, {0, 1}};
+    for (int k = 0; k < X.rows(); ++k) {
+      const int li[3] = {p - L(k, 0) - L(k, 1), L(k, 0), L(k, 1)};
+      const double u = X(k, 0), v = X(k, 1);
+      const bool on_edge = li[0] == 0 || li[1] == 0 || li[2] == 0;
+      if (on_edge) {
+        // Edge nodes are the 1D GLL points, whichever way the edge is walked.
+        for (int c = 0; c < 3; ++c) {
+          if (li[c] != 0) continue;
+          const int a = (c + 1) % 3, b = (c + 2) % 3;
+          const double s = t[li[b]];
+          CHECK(u == doctest::Approx(A[a][0] + s * (A[b][0] - A[a][0])).epsilon(1e-15));
+          CHECK(v == doctest::Approx(A[a][1] + s * (A[b][1] - A[a][1])).epsilon(1e-15));
+        }
+      } else {
+        // Strictly inside.
+        CHECK(u > 1e-3);
+        CHECK(v > 1e-3);
+        CHECK(1 - u - v > 1e-3);
+      }
+    }
+    // Symmetry under every vertex permutation: the permuted node set equals the node set.
+    const int perms[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {2, 1, 0}, {1, 0, 2}};
+    for (auto& s : perms) {
+      double worst = 0;
+      for (int k = 0; k < X.rows(); ++k) {
+        const double lam[3] = {1 - X(k, 0) - X(k, 1), X(k, 0), X(k, 1)};
+        // Image of node k when vertex i is sent to vertex s[i].
+        double mu[3];
+        for (int i = 0; i < 3; ++i) mu[s[i]] = lam[i];
+        double best = 1e300;
+        for (int m = 0; m < X.rows(); ++m)
+          best = std::min(best, std::hypot(X(m, 0) - mu[1], X(m, 1) - mu[2]));
+        worst = std::max(worst, best);
+      }
+      CHECK(worst < 1e-14);
+    }
+    // Nodes are distinct (min distance well above zero).
+    double dmin = 1e300;
+    for (int i = 0; i < X.rows(); ++i)
+      for (int j = i + 1; j < X.rows(); ++j)
+        dmin = std::min(dmin, std::hypot(X(i, 0) - X(j, 0), X(i, 1) - X(j, 1)));
+    CHECK(dmin > 0.2 / (p * p));
+  }
+  CHECK((tet_reference_nodes(2, NodeDistribution::Lobatto) - tet_reference_nodes(2)).norm() == 0.0);
+}
