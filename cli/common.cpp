@@ -1,0 +1,83 @@
+#include "cli/common.hpp"
+
+#include "engine/core/error.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+
+namespace hocurve::cli {
+
+void Progress::operator()(const std::string& stage, double fraction) const {
+  if (!enabled) return;
+  nlohmann::json j = {{"stage", stage}, {"fraction", fraction}};
+  std::cout << j.dump() << "\n" << std::flush;
+}
+
+double now_seconds() {
+  using namespace std::chrono;
+  return duration<double>(steady_clock::now().time_since_epoch()).count();
+}
+
+LoadedInput load_input(const std::string& path, const Progress& progress) {
+  LoadedInput in;
+  progress("read", 0.0);
+  double t0 = now_seconds();
+  ReadResult r = read_mesh_file(path);
+  in.mesh = std::move(r.mesh);
+  in.read = std::move(r.report);
+  double t1 = now_seconds();
+  progress("validate", 0.0);
+  in.validation = validate_mesh(in.mesh);
+  in.read_seconds = t1 - t0;
+  in.validate_seconds = now_seconds() - t1;
+  return in;
+}
+
+nlohmann::json input_json(const std::string& path, const LoadedInput& in) {
+  const auto& v = in.validation;
+  return {
+      {"file", path},
+      {"format", in.read.format},
+      {"gzip", in.read.gzip},
+      {"vertices", in.mesh.num_vertices()},
+      {"faces", in.mesh.num_faces()},
+      {"facets_read", in.read.facets_read},
+      {"welded_vertices", in.read.welded_vertices},
+      {"physical_groups", in.mesh.physicals.size()},
+      {"validation",
+       {{"components", v.components},
+        {"boundary_edges", v.boundary_edges},
+        {"nonmanifold_edges", v.nonmanifold_edges},
+        {"nonmanifold_vertices", v.nonmanifold_vertices},
+        {"flipped_faces", v.flipped_faces},
+        {"non_orientable_components", v.non_orientable_components},
+        {"duplicate_faces_removed", v.duplicate_faces},
+        {"degenerate_faces_removed", v.degenerate_faces},
+        {"zero_area_faces", v.zero_area_faces},
+        {"unused_vertices_removed", v.unused_vertices}}},
+      {"warnings", [&] {
+         auto w = in.read.warnings;
+         w.insert(w.end(), v.warnings.begin(), v.warnings.end());
+         return w;
+       }()},
+      {"seconds", {{"read", in.read_seconds}, {"validate", in.validate_seconds}}},
+  };
+}
+
+void write_json_file(const std::string& path, const nlohmann::json& j) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) throw UsageError("cannot write " + path + ": cannot open for writing");
+    f << j.dump(2) << "\n";
+    if (!f.flush()) throw UsageError("cannot write " + path + ": write failed");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw UsageError("cannot write " + path + ": cannot rename the temporary file into place");
+  }
+}
+
+}  // namespace hocurve::cli

@@ -1,0 +1,38 @@
+// What every sub-command shares: loading and validating the input, progress lines, stats JSON.
+#pragma once
+#include "engine/core/mesh.hpp"
+#include "engine/io/read_mesh.hpp"
+#include "engine/io/validate_mesh.hpp"
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace hocurve::cli {
+
+/// Reports stage progress as JSON lines on stdout when enabled (the daemon's worker protocol).
+struct Progress {
+  bool enabled = false;
+  void operator()(const std::string& stage, double fraction) const;
+};
+
+/// A read and validated input mesh with its reports.
+struct LoadedInput {
+  Mesh mesh;
+  ReadReport read;
+  ValidateReport validation;
+  double read_seconds = 0, validate_seconds = 0;
+};
+
+/// Reads and validates a mesh file; throws InputError with file and location on refusal.
+LoadedInput load_input(const std::string& path, const Progress& progress);
+
+/// The input part of the stats JSON (format, counts, repairs, warnings, timings).
+nlohmann::json input_json(const std::string& path, const LoadedInput& in);
+
+/// Writes JSON to a file atomically (temporary file, then rename).
+void write_json_file(const std::string& path, const nlohmann::json& j);
+
+/// Wall-clock seconds since an arbitrary origin.
+double now_seconds();
+
+}  // namespace hocurve::cli
