@@ -23,9 +23,17 @@ struct Features {
   std::vector<int> edge_curve;        ///< per edge: curve index, -1 if not a feature
   long long sharp_edges = 0, boundary_edges = 0, nonmanifold_edges = 0, entity_border_edges = 0;
   int corners = 0;
+  long long feature_edges = 0;        ///< edges with edge_feature == 1 (an edge may be of several kinds above)
+  int closed_curves = 0;              ///< curves that are closed loops without corners
 };
 
 /// Detects feature edges, chains them into curves and marks corners.
+/// An interior edge (two faces) is sharp when the angle between its two face normals, as
+/// oriented in the input, exceeds opt.angle_deg (35° by default: a 90° CAD rim is caught, a
+/// sphere discretised with >= 10 segments around is not). Boundary and non-manifold edges are
+/// always features; entity borders when opt.entity_borders. Faces of zero area have no normal
+/// and never make an edge sharp. Curves and corners are numbered deterministically (by vertex
+/// and edge index).
 Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptions& opt = {});
 
 }  // namespace hocurve

@@ -5,6 +5,7 @@
 #include "engine/core/topology.hpp"
 
 #include <string>
+#include <vector>
 
 namespace hocurve {
 
@@ -22,12 +23,18 @@ struct Spread {
 
 struct Uniformity {
   Spread edge_length, area, aspect;
-  double needle_share = 0;
+  double needle_share = 0;           ///< share of faces with aspect > needle_aspect (zero-area faces count)
+  long long degenerate_faces = 0;    ///< zero-area faces (not in the aspect spread)
   bool uniform = true;
   std::string reason;  ///< why it is not uniform (empty when uniform)
 };
 
-/// Edge-length, area and aspect statistics and the uniformity verdict.
+/// min, mean, max, coefficient of variation (population std / mean) and the 1st/99th
+/// percentiles (linear interpolation between order statistics) of x.
+Spread spread_of(std::vector<double> x);
+
+/// Edge-length (unique edges), area and aspect statistics and the uniformity verdict:
+/// non-uniform when edge p99/p1 > max_edge_ratio or needle share > max_needle_share.
 Uniformity check_uniformity(const Mesh& mesh, const Topology& T, const UniformityOptions& opt = {});
 
 }  // namespace hocurve

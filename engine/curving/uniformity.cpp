@@ -1,0 +1,85 @@
+#include "engine/curving/uniformity.hpp"
+
+#include "engine/core/error.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <vector>
+
+namespace hocurve {
+
+Spread spread_of(std::vector<double> x) {
+  Spread s;
+  if (x.empty()) return s;
+  std::sort(x.begin(), x.end());
+  const size_t n = x.size();
+  s.min = x.front(), s.max = x.back();
+  double sum = 0;
+  for (double v : x) sum += v;
+  s.mean = sum / n;
+  double var = 0;
+  for (double v : x) var += (v - s.mean) * (v - s.mean);
+  var /= n;
+  s.cv = s.mean != 0 ? std::sqrt(var) / s.mean : 0;
+  // Linear interpolation between order statistics (numpy's default percentile).
+  auto pct = [&](double q) {
+    const double pos = q / 100.0 * (n - 1);
+    const size_t i = static_cast<size_t>(std::floor(pos));
+    const double t = pos - i;
+    return i + 1 < n ? x[i] + t * (x[i + 1] - x[i]) : x[n - 1];
+  };
+  s.p1 = pct(1), s.p99 = pct(99);
+  return s;
+}
+
+Uniformity check_uniformity(const Mesh& mesh, const Topology& T, const UniformityOptions& opt) {
+  if (!(opt.max_edge_ratio > 0) || !(opt.max_needle_share >= 0) || !(opt.needle_aspect > 0))
+    throw InputError("uniformity", "thresholds must be positive");
+  Uniformity U;
+  std::vector<double> len(T.num_edges());
+  for (int e = 0; e < T.num_edges(); ++e) len[e] = (mesh.V.row(T.E(e, 0)) - mesh.V.row(T.E(e, 1))).norm();
+  const int nf = mesh.num_faces();
+  std::vector<double> area(nf), aspect;
+  aspect.reserve(nf);
+  long long needles = 0, degenerate = 0;
+  for (int f = 0; f < nf; ++f) {
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+    area[f] = 0.5 * (b - a).cross(c - a).norm();
+    const double lmax = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    // Longest edge over shortest altitude; the shortest altitude is 2A / longest edge.
+    if (area[f] > 0) {
+      const double asp = lmax * lmax / (2 * area[f]);
+      aspect.push_back(asp);
+      if (asp > opt.needle_aspect) ++needles;
+    } else {
+      ++needles, ++degenerate;  // zero area: infinitely thin, kept out of the aspect spread
+    }
+  }
+  U.edge_length = spread_of(std::move(len));
+  U.area = spread_of(std::move(area));
+  U.aspect = spread_of(std::move(aspect));
+  U.needle_share = nf ? static_cast<double>(needles) / nf : 0.0;
+  U.degenerate_faces = degenerate;
+
+  char buf[200];
+  const double er = U.edge_length.ratio_p99_p1();
+  if (U.edge_length.p1 <= 0 && T.num_edges() > 0) {
+    U.uniform = false;
+    U.reason = "zero-length edges among the shortest 1%";
+  } else if (er > opt.max_edge_ratio) {
+    U.uniform = false;
+    std::snprintf(buf, sizeof buf, "edge length p99/p1 = %.3g > %.3g", er, opt.max_edge_ratio);
+    U.reason = buf;
+  }
+  if (U.needle_share > opt.max_needle_share) {
+    U.uniform = false;
+    std::snprintf(buf, sizeof buf, "needle share (aspect > %.3g) = %.3g > %.3g", opt.needle_aspect, U.needle_share,
+                  opt.max_needle_share);
+    U.reason += (U.reason.empty() ? "" : "; ") + std::string(buf);
+  }
+  return U;
+}
+
+}  // namespace hocurve
