@@ -32,4 +32,14 @@ ReadResult read_mesh_bytes(std::string_view bytes, const std::string& name, cons
 /// Reads a mesh file (any supported format, optionally gzip-compressed).
 ReadResult read_mesh_file(const std::string& path, const ReadOptions& opt = {});
 
+/// Cheap content sniffing: the format `read_mesh_bytes` would use for these bytes ("stl-ascii",
+/// "stl-binary", "obj", "ply-ascii", "ply-binary", "off", "msh2", "msh4"), or "" when unknown.
+/// gzip input is looked through (only its first 64 KiB are inflated), so the answer is the inner
+/// format. `bytes` may be only the beginning of a file, except that a binary STL without a
+/// recognisable header is told apart by its exact size (84 + 50 n bytes). `name` is a weak hint.
+std::string detect_format(std::string_view bytes, const std::string& name);
+
+/// Inflates gzip (or zlib) data; throws InputError(name, ...) when it is corrupt or truncated.
+std::string gunzip(std::string_view bytes, const std::string& name);
+
 }  // namespace hocurve

@@ -12,6 +12,8 @@ struct ValidateOptions {
   bool drop_duplicate_faces = true;     ///< remove faces that repeat another face's three vertices
   bool drop_degenerate_faces = true;    ///< remove faces with a repeated vertex index
   bool drop_unused_vertices = true;     ///< compact V to the vertices faces use
+  bool orient_outward = true;           ///< flip closed orientable components whose signed volume is negative
+  std::string name;                     ///< file name used in messages (may be empty)
 };
 
 /// What validate_mesh found and did. Fatal problems throw InputError instead.
@@ -20,7 +22,8 @@ struct ValidateReport {
   long long boundary_edges = 0, nonmanifold_edges = 0, nonmanifold_vertices = 0;
   long long flipped_faces = 0;          ///< faces re-oriented for consistency
   long long non_orientable_components = 0;
-  int components = 0;
+  long long outward_flipped_components = 0;  ///< closed components turned outward (included in flipped_faces)
+  int components = 0;                   ///< edge-connected face components
   std::vector<std::string> warnings;    ///< one line each, naming face/vertex indices
 };
 

@@ -1,0 +1,22 @@
+// Per-format parsers behind read_mesh_bytes (internal to engine/io; not a public interface).
+// Each takes the whole (already inflated) file content and fills a Mesh plus the report's
+// warnings and facet count. All of them throw InputError with the file name and a location.
+#pragma once
+#include "engine/io/read_mesh.hpp"
+
+#include <string>
+#include <string_view>
+
+namespace hocurve::io_detail {
+
+void read_stl_binary(std::string_view bytes, const std::string& name, const ReadOptions& opt, ReadResult& out);
+void read_stl_ascii(std::string_view bytes, const std::string& name, const ReadOptions& opt, ReadResult& out);
+void read_obj(std::string_view bytes, const std::string& name, ReadResult& out);
+void read_ply(std::string_view bytes, const std::string& name, ReadResult& out);
+void read_off(std::string_view bytes, const std::string& name, ReadResult& out);
+void read_msh(std::string_view bytes, const std::string& name, ReadResult& out);
+
+/// Throws InputError naming the first vertex with a NaN/Inf coordinate.
+void check_finite_vertices(const Mesh& mesh, const std::string& name);
+
+}  // namespace hocurve::io_detail

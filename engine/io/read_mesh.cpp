@@ -1,0 +1,253 @@
+#include "engine/io/read_mesh.hpp"
+
+#include "engine/core/error.hpp"
+#include "engine/io/format_readers.hpp"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+
+namespace hocurve {
+namespace {
+
+bool is_gzip(std::string_view b) {
+  return b.size() >= 2 && static_cast<unsigned char>(b[0]) == 0x1f && static_cast<unsigned char>(b[1]) == 0x8b;
+}
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+/// The name's extension without a trailing ".gz", lower case ("stl", "obj", ...).
+std::string extension_hint(const std::string& name) {
+  std::string n = lower(name);
+  if (ends_with(n, ".gz")) n.resize(n.size() - 3);
+  const auto dot = n.find_last_of('.');
+  const auto slash = n.find_last_of("/\\");
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return {};
+  return n.substr(dot + 1);
+}
+
+std::string_view skip_space(std::string_view b) {
+  std::size_t i = 0;
+  // A UTF-8 byte order mark sometimes precedes text formats.
+  if (b.size() >= 3 && b.substr(0, 3) == "\xEF\xBB\xBF") i = 3;
+  while (i < b.size() && std::isspace(static_cast<unsigned char>(b[i]))) ++i;
+  return b.substr(i);
+}
+
+bool starts_with_word(std::string_view b, std::string_view w) {
+  if (b.size() < w.size()) return false;
+  for (std::size_t i = 0; i < w.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(b[i])) != w[i]) return false;
+  return b.size() == w.size() || std::isspace(static_cast<unsigned char>(b[w.size()])) || b[w.size()] == '\0';
+}
+
+bool looks_like_text(std::string_view b) {
+  for (unsigned char c : b)
+    if (c < 9 || (c > 13 && c < 32) || c == 127) return false;
+  return true;
+}
+
+bool looks_like_obj(std::string_view head) {
+  // Every non-empty, non-comment line must start with a known OBJ keyword, and one must be "v".
+  bool saw_v = false;
+  std::size_t pos = 0, lines = 0;
+  while (pos < head.size() && lines < 2000) {
+    std::size_t end = head.find('\n', pos);
+    const bool complete = end != std::string_view::npos;
+    if (!complete) end = head.size();
+    std::string_view line = skip_space(head.substr(pos, end - pos));
+    pos = end + 1;
+    ++lines;
+    if (line.empty() || line[0] == '#') continue;
+    if (!complete) break;  // the last, cut line of a partial head proves nothing
+    static constexpr std::string_view keys[] = {"v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "usemtl",
+                                                "mtllib", "cstype", "deg", "curv", "parm", "end", "surf"};
+    bool ok = false;
+    for (auto k : keys)
+      if (starts_with_word(line, k)) ok = true;
+    if (!ok) return false;
+    if (starts_with_word(line, "v")) saw_v = true;
+  }
+  return saw_v;
+}
+
+std::uint32_t stl_declared_count(std::string_view b) {
+  std::uint32_t n = 0;
+  std::memcpy(&n, b.data() + 80, 4);
+  return n;
+}
+
+/// Format detection on the (inflated) content; total_size is the full inflated size when known.
+std::string detect_plain(std::string_view b, std::size_t total_size, const std::string& name) {
+  const std::string_view t = skip_space(b);
+  if (t.substr(0, 11) == "$MeshFormat") {
+    std::string_view rest = skip_space(t.substr(11));
+    return rest.substr(0, 1) == "2" ? "msh2" : "msh4";
+  }
+  if (t.substr(0, 3) == "ply" && t.size() > 3 && (t[3] == '\n' || t[3] == '\r')) {
+    const auto nl = t.find("format");
+    if (nl != std::string_view::npos && t.substr(nl, 13) == "format binary") return "ply-binary";
+    return "ply-ascii";
+  }
+  for (std::string_view k : {"OFF", "COFF", "NOFF", "CNOFF", "STOFF", "STCOFF", "STNOFF", "NCOFF"})
+    if (t.substr(0, k.size()) == k &&
+        (t.size() == k.size() || std::isspace(static_cast<unsigned char>(t[k.size()]))))
+      return "off";
+  const std::string ext = extension_hint(name);
+  const bool has_stl_size = total_size >= 84 && b.size() >= 84;
+  if (has_stl_size && 84 + 50ull * stl_declared_count(b) == total_size) return "stl-binary";
+  if (starts_with_word(t, "solid")) {
+    const std::string_view head = t.substr(0, 4096);
+    if (looks_like_text(head) && (head.find("facet") != std::string_view::npos ||
+                                  head.find("endsolid") != std::string_view::npos))
+      return "stl-ascii";
+  }
+  if (looks_like_text(b.substr(0, 65536)) && looks_like_obj(b.substr(0, 65536))) return "obj";
+  // Binary STL with data after the declared facets, or truncated: only trusted with a .stl name
+  // or when the declared facets fit in the file (garbage rarely declares a fitting count).
+  if (has_stl_size) {
+    const std::uint32_t n = stl_declared_count(b);
+    if (n > 0 && 84 + 50ull * n <= total_size && !looks_like_text(b.substr(0, 84 + 50ull * std::min(n, 20u))))
+      return "stl-binary";
+  }
+  if (ext == "stl" && !starts_with_word(t, "solid")) return "stl-binary";
+  if (ext == "stl") return "stl-ascii";
+  return {};
+}
+
+}  // namespace
+
+std::string gunzip(std::string_view bytes, const std::string& name) {
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 32) != Z_OK) throw InputError(name, "cannot initialise zlib");
+  std::unique_ptr<z_stream, int (*)(z_stream*)> guard(&zs, inflateEnd);
+  std::string out;
+  // The gzip trailer holds the inflated size modulo 2^32: a good first guess.
+  std::size_t guess = bytes.size() * 4;
+  if (is_gzip(bytes) && bytes.size() >= 18) {
+    std::uint32_t isize = 0;
+    std::memcpy(&isize, bytes.data() + bytes.size() - 4, 4);
+    if (isize > 0) guess = isize;
+  }
+  out.resize(std::max<std::size_t>(guess, 1024));
+  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
+  std::size_t in_left = bytes.size(), produced = 0;
+  for (;;) {
+    if (produced == out.size()) out.resize(out.size() * 2);
+    const uInt in_chunk = static_cast<uInt>(std::min<std::size_t>(in_left, 1u << 30));
+    const uInt out_chunk = static_cast<uInt>(std::min<std::size_t>(out.size() - produced, 1u << 30));
+    zs.avail_in = in_chunk;
+    zs.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
+    zs.avail_out = out_chunk;
+    const int rc = inflate(&zs, Z_NO_FLUSH);
+    in_left -= in_chunk - zs.avail_in;
+    produced += out_chunk - zs.avail_out;
+    if (rc == Z_STREAM_END) {
+      // Concatenated gzip members are legal: continue when another one follows.
+      if (in_left >= 2 && is_gzip(std::string_view(reinterpret_cast<const char*>(zs.next_in), in_left))) {
+        inflateReset(&zs);
+        continue;
+      }
+      break;
+    }
+    if (rc == Z_BUF_ERROR && in_left == 0)
+      throw InputError(name, "truncated gzip stream (" + std::to_string(produced) + " bytes inflated)");
+    if (rc != Z_OK && rc != Z_BUF_ERROR)
+      throw InputError(name, std::string("corrupt gzip stream: ") + (zs.msg ? zs.msg : "inflate error"));
+  }
+  out.resize(produced);
+  return out;
+}
+
+std::string detect_format(std::string_view bytes, const std::string& name) {
+  if (!is_gzip(bytes)) return detect_plain(bytes, bytes.size(), name);
+  // Inflate only the head; the gzip trailer (ISIZE) gives the full size for the binary STL test.
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 32) != Z_OK) return {};
+  std::string head(65536, '\0');
+  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
+  zs.avail_in = static_cast<uInt>(std::min<std::size_t>(bytes.size(), 1u << 30));
+  zs.next_out = reinterpret_cast<Bytef*>(head.data());
+  zs.avail_out = static_cast<uInt>(head.size());
+  const int rc = inflate(&zs, Z_SYNC_FLUSH);
+  head.resize(head.size() - zs.avail_out);
+  inflateEnd(&zs);
+  if (rc != Z_OK && rc != Z_STREAM_END && rc != Z_BUF_ERROR) return {};
+  std::size_t total = head.size();
+  if (rc != Z_STREAM_END && bytes.size() >= 18) {
+    std::uint32_t isize = 0;
+    std::memcpy(&isize, bytes.data() + bytes.size() - 4, 4);
+    total = isize;
+  }
+  return detect_plain(head, total, name);
+}
+
+namespace io_detail {
+void check_finite_vertices(const Mesh& mesh, const std::string& name) {
+  static constexpr const char* axis[] = {"x", "y", "z"};
+  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(mesh.V(v, d)))
+        throw InputError(name, "vertex " + std::to_string(v) + " has a " +
+                                   (std::isnan(mesh.V(v, d)) ? "NaN" : "infinite") + " " + axis[d] +
+                                   " coordinate");
+}
+}  // namespace io_detail
+
+ReadResult read_mesh_bytes(std::string_view bytes, const std::string& name, const ReadOptions& opt) {
+  ReadResult out;
+  std::string inflated;
+  if (is_gzip(bytes)) {
+    inflated = gunzip(bytes, name);
+    bytes = inflated;
+    out.report.gzip = true;
+  }
+  if (bytes.empty()) throw InputError(name, out.report.gzip ? "empty file (after gunzip)" : "empty file");
+  if (skip_space(bytes).empty()) throw InputError(name, "file holds only white space");
+  const std::string fmt = detect_plain(bytes, bytes.size(), name);
+  if (fmt.empty())
+    throw InputError(name, "unknown mesh format (expected STL, OBJ, PLY, OFF or Gmsh .msh, optionally gzip)");
+  out.report.format = fmt;
+  if (fmt == "stl-binary") io_detail::read_stl_binary(bytes, name, opt, out);
+  else if (fmt == "stl-ascii") io_detail::read_stl_ascii(bytes, name, opt, out);
+  else if (fmt == "obj") io_detail::read_obj(bytes, name, out);
+  else if (fmt == "ply-ascii" || fmt == "ply-binary") io_detail::read_ply(bytes, name, out);
+  else if (fmt == "off") io_detail::read_off(bytes, name, out);
+  else io_detail::read_msh(bytes, name, out);
+  if (out.mesh.F.rows() == 0) throw InputError(name, "no triangles in the file");
+  io_detail::check_finite_vertices(out.mesh, name);
+  out.report.facets_read = out.mesh.F.rows();
+  return out;
+}
+
+ReadResult read_mesh_file(const std::string& path, const ReadOptions& opt) {
+  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), std::fclose);
+  if (!f) throw InputError(path, std::string("cannot open file: ") + std::strerror(errno));
+  std::string data;
+  if (std::fseek(f.get(), 0, SEEK_END) == 0) {
+    const long size = std::ftell(f.get());
+    if (size > 0) data.resize(static_cast<std::size_t>(size));
+    std::fseek(f.get(), 0, SEEK_SET);
+  }
+  std::size_t got = data.empty() ? 0 : std::fread(data.data(), 1, data.size(), f.get());
+  data.resize(got);
+  // Pipes and special files report no size: read on until EOF.
+  char buf[65536];
+  std::size_t k;
+  while ((k = std::fread(buf, 1, sizeof buf, f.get())) > 0) data.append(buf, k);
+  if (std::ferror(f.get())) throw InputError(path, "read error");
+  return read_mesh_bytes(data, path, opt);
+}
+
+}  // namespace hocurve

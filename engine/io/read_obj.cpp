@@ -1,0 +1,87 @@
+// Wavefront OBJ through Debian's tinyobjloader (double build), parsed from memory.
+#include "engine/core/error.hpp"
+#include "engine/io/format_readers.hpp"
+
+#include <tiny_obj_loader.h>
+
+#include <istream>
+#include <streambuf>
+
+namespace hocurve::io_detail {
+namespace {
+
+/// Read-only streambuf over memory, so tinyobjloader reads without a copy of the file.
+struct MemoryBuf : std::streambuf {
+  MemoryBuf(const char* b, std::size_t n) {
+    char* p = const_cast<char*>(b);
+    setg(p, p, p + n);
+  }
+};
+
+/// Materials are irrelevant for geometry: never open .mtl files.
+struct NoMaterials : tinyobj::MaterialReader {
+  bool operator()(const std::string&, std::vector<tinyobj::material_t>*, std::map<std::string, int>*,
+                  std::string*, std::string*) override {
+    return true;
+  }
+};
+
+std::string first_line(const std::string& s) {
+  std::string t = s.substr(0, s.find('\n'));
+  return t.empty() ? "parse error" : t;
+}
+
+}  // namespace
+
+void read_obj(std::string_view bytes, const std::string& name, ReadResult& out) {
+  MemoryBuf buf(bytes.data(), bytes.size());
+  std::istream in(&buf);
+  tinyobj::attrib_t attrib;
+  std::vector<tinyobj::shape_t> shapes;
+  std::vector<tinyobj::material_t> materials;
+  std::string warn, err;
+  NoMaterials no_mtl;
+  // triangulate=false: we fan-split polygons ourselves, so the rule is ours and documented.
+  const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &in, &no_mtl, false, false);
+  if (!ok) throw InputError(name, "OBJ: " + first_line(err));
+  Mesh& m = out.mesh;
+  const std::size_t nv = attrib.vertices.size() / 3;
+  if (nv > static_cast<std::size_t>(INT32_MAX)) throw InputError(name, "too many vertices");
+  m.V.resize(static_cast<Eigen::Index>(nv), 3);
+  for (std::size_t v = 0; v < nv; ++v)
+    for (int d = 0; d < 3; ++d) m.V(v, d) = static_cast<double>(attrib.vertices[3 * v + d]);
+  std::vector<int> tri;
+  long long face = 0, polygons = 0, small = 0, points_lines = 0;
+  for (const auto& sh : shapes) {
+    std::size_t k = 0;
+    for (const auto nfv : sh.mesh.num_face_vertices) {
+      const int n = static_cast<int>(nfv);
+      for (int c = 0; c < n; ++c) {
+        const int vi = sh.mesh.indices[k + c].vertex_index;
+        if (vi < 0 || static_cast<std::size_t>(vi) >= nv)
+          throw InputError(name + ": face " + std::to_string(face),
+                           "vertex index " + std::to_string(vi >= 0 ? vi + 1 : vi) +
+                               " out of range (the file has " + std::to_string(nv) + " vertices; OBJ counts from 1)");
+      }
+      if (n < 3) ++small;
+      if (n > 3) ++polygons;
+      for (int c = 1; c + 1 < n; ++c) {  // fan around the polygon's first corner
+        tri.push_back(sh.mesh.indices[k].vertex_index);
+        tri.push_back(sh.mesh.indices[k + c].vertex_index);
+        tri.push_back(sh.mesh.indices[k + c + 1].vertex_index);
+      }
+      k += n;
+      ++face;
+    }
+    points_lines += static_cast<long long>(sh.lines.num_line_vertices.size() + sh.points.indices.size());
+  }
+  m.F.resize(static_cast<Eigen::Index>(tri.size() / 3), 3);
+  for (std::size_t f = 0; f < tri.size() / 3; ++f)
+    for (int j = 0; j < 3; ++j) m.F(f, j) = tri[3 * f + j];
+  if (polygons) out.report.warnings.push_back(name + ": " + std::to_string(polygons) +
+                                              " polygons with more than 3 corners were fan-split into triangles");
+  if (small) out.report.warnings.push_back(name + ": " + std::to_string(small) + " faces with fewer than 3 corners ignored");
+  if (points_lines) out.report.warnings.push_back(name + ": " + std::to_string(points_lines) + " point/line elements ignored");
+}
+
+}  // namespace hocurve::io_detail

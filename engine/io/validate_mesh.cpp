@@ -1,0 +1,281 @@
+#include "engine/io/validate_mesh.hpp"
+
+#include "engine/core/error.hpp"
+#include "engine/core/topology.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+
+namespace hocurve {
+namespace {
+
+std::string plural(long long n, const char* one, const char* many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
+/// Keeps the faces with keep[f] (and their entity tags).
+void keep_faces(Mesh& m, const std::vector<char>& keep) {
+  const int nf = m.num_faces();
+  int k = 0;
+  for (int f = 0; f < nf; ++f) {
+    if (!keep[f]) continue;
+    m.F.row(k) = m.F.row(f);
+    if (m.face_entity.size()) m.face_entity[k] = m.face_entity[f];
+    ++k;
+  }
+  m.F.conservativeResize(k, 3);
+  if (m.face_entity.size()) m.face_entity.conservativeResize(k);
+}
+
+/// Does face f walk the edge a->b (rather than b->a)?
+bool walks(const Mesh& m, int f, int a, int b) {
+  for (int j = 0; j < 3; ++j)
+    if (m.F(f, j) == a && m.F(f, (j + 1) % 3) == b) return true;
+  return false;
+}
+
+}  // namespace
+
+ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
+  ValidateReport r;
+  const std::string& name = opt.name;
+  auto warn = [&](const std::string& s) { r.warnings.push_back(name.empty() ? s : name + ": " + s); };
+
+  // --- fatal checks ---------------------------------------------------------------------------
+  if (m.F.rows() == 0) throw InputError(name, "no triangles");
+  if (m.F.cols() != 3) throw InputError(name, "faces are not triangles");
+  if (m.V.cols() != 3) throw InputError(name, "vertices are not 3D points");
+  if (m.face_entity.size() && m.face_entity.size() != m.F.rows())
+    throw InputError(name, "face_entity has " + std::to_string(m.face_entity.size()) + " entries for " +
+                               std::to_string(m.F.rows()) + " faces");
+  static constexpr const char* axis[] = {"x", "y", "z"};
+  for (Eigen::Index v = 0; v < m.V.rows(); ++v)
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(m.V(v, d)))
+        throw InputError(name + (name.empty() ? "" : ": ") + "vertex " + std::to_string(v),
+                         std::string("has a ") + (std::isnan(m.V(v, d)) ? "NaN" : "infinite") + " " + axis[d] +
+                             " coordinate");
+  const int nv0 = m.num_vertices();
+  for (int f = 0; f < m.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j)
+      if (m.F(f, j) < 0 || m.F(f, j) >= nv0)
+        throw InputError(name + (name.empty() ? "" : ": ") + "face " + std::to_string(f),
+                         "vertex index " + std::to_string(m.F(f, j)) + " out of range [0, " + std::to_string(nv0) + ")");
+
+  // --- degenerate and duplicate faces ---------------------------------------------------------
+  {
+    const int nf = m.num_faces();
+    std::vector<char> keep(nf, 1);
+    int first_degenerate = -1;
+    for (int f = 0; f < nf; ++f)
+      if (m.F(f, 0) == m.F(f, 1) || m.F(f, 1) == m.F(f, 2) || m.F(f, 0) == m.F(f, 2)) {
+        ++r.degenerate_faces;
+        if (first_degenerate < 0) first_degenerate = f;
+        if (opt.drop_degenerate_faces) keep[f] = 0;
+      }
+    // Duplicates: same three vertices in any order; sort keys, keep the first occurrence.
+    std::vector<std::array<int, 4>> key;
+    key.reserve(nf);
+    for (int f = 0; f < nf; ++f) {
+      if (!keep[f]) continue;
+      std::array<int, 4> k = {m.F(f, 0), m.F(f, 1), m.F(f, 2), f};
+      std::sort(k.begin(), k.begin() + 3);
+      key.push_back(k);
+    }
+    std::sort(key.begin(), key.end());
+    int first_dup = -1, first_dup_of = -1;
+    for (std::size_t i = 1; i < key.size(); ++i)
+      if (key[i][0] == key[i - 1][0] && key[i][1] == key[i - 1][1] && key[i][2] == key[i - 1][2]) {
+        ++r.duplicate_faces;
+        if (first_dup < 0 || key[i][3] < first_dup) first_dup = key[i][3], first_dup_of = key[i - 1][3];
+        if (opt.drop_duplicate_faces) keep[key[i][3]] = 0;
+        key[i][3] = key[i - 1][3];  // later repeats point at the first occurrence
+      }
+    if (r.degenerate_faces)
+      warn(plural(r.degenerate_faces, "degenerate face", "degenerate faces") + " (repeated vertex index), first: face " +
+           std::to_string(first_degenerate) + (opt.drop_degenerate_faces ? "; removed" : ""));
+    if (r.duplicate_faces)
+      warn(plural(r.duplicate_faces, "duplicate face", "duplicate faces") + ", first: face " + std::to_string(first_dup) +
+           " repeats face " + std::to_string(first_dup_of) + (opt.drop_duplicate_faces ? "; removed" : ""));
+    if (r.degenerate_faces + r.duplicate_faces) keep_faces(m, keep);
+    if (m.F.rows() == 0) throw InputError(name, "no usable triangles (all degenerate or duplicate)");
+  }
+
+  // --- unused vertices ------------------------------------------------------------------------
+  {
+    std::vector<int> remap(m.num_vertices(), -1);
+    for (int f = 0; f < m.num_faces(); ++f)
+      for (int j = 0; j < 3; ++j) remap[m.F(f, j)] = 0;
+    int nv = 0;
+    for (auto& x : remap) x = x == 0 ? nv++ : -1;
+    r.unused_vertices = m.num_vertices() - nv;
+    if (r.unused_vertices && opt.drop_unused_vertices) {
+      Eigen::MatrixXd V(nv, 3);
+      for (int v = 0; v < m.num_vertices(); ++v)
+        if (remap[v] >= 0) V.row(remap[v]) = m.V.row(v);
+      m.V.swap(V);
+      for (int f = 0; f < m.num_faces(); ++f)
+        for (int j = 0; j < 3; ++j) m.F(f, j) = remap[m.F(f, j)];
+      warn(plural(r.unused_vertices, "unused vertex", "unused vertices") + " removed");
+    } else if (r.unused_vertices) {
+      warn(plural(r.unused_vertices, "unused vertex", "unused vertices"));
+    }
+  }
+
+  const int nf = m.num_faces(), nv = m.num_vertices();
+
+  // --- zero-area faces (kept: removing them would open holes) ----------------------------------
+  {
+    int first = -1;
+    for (int f = 0; f < nf; ++f) {
+      const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+      const double l2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+      // Relative test: |cross| = 2 area; collinear corners leave only rounding noise (~1e-16 l^2).
+      if ((b - a).cross(c - a).norm() <= 1e-14 * l2) {
+        ++r.zero_area_faces;
+        if (first < 0) first = f;
+      }
+    }
+    if (r.zero_area_faces)
+      warn(plural(r.zero_area_faces, "zero-area face", "zero-area faces") + " (collinear corners), first: face " +
+           std::to_string(first));
+  }
+
+  // --- topology: boundary, non-manifold edges and vertices -------------------------------------
+  const Topology T = build_topology(m.F, nv);
+  int first_nm_edge = -1;
+  for (int e = 0; e < T.num_edges(); ++e) {
+    const auto k = T.edge_faces[e].size();
+    if (k == 1) ++r.boundary_edges;
+    if (k > 2) {
+      ++r.nonmanifold_edges;
+      if (first_nm_edge < 0) first_nm_edge = e;
+    }
+  }
+  if (r.boundary_edges) warn(plural(r.boundary_edges, "boundary edge", "boundary edges") + " (the surface is open)");
+  if (r.nonmanifold_edges)
+    warn(plural(r.nonmanifold_edges, "non-manifold edge", "non-manifold edges") + " (more than 2 faces), first: vertices " +
+         std::to_string(T.E(first_nm_edge, 0)) + "-" + std::to_string(T.E(first_nm_edge, 1)));
+  {
+    // A vertex is non-manifold when its faces do not form one fan joined through its edges.
+    std::vector<int> parent;
+    int first = -1;
+    for (int v = 0; v < nv; ++v) {
+      const auto [fb, fe] = T.faces_of(v);
+      const int k = static_cast<int>(fe - fb);
+      if (k <= 1) continue;
+      parent.resize(k);
+      std::iota(parent.begin(), parent.end(), 0);
+      auto find = [&](int x) { while (parent[x] != x) x = parent[x] = parent[parent[x]]; return x; };
+      auto local = [&](int f) { return static_cast<int>(std::lower_bound(fb, fe, f) - fb); };
+      int groups = k;
+      const auto [eb, ee] = T.edges_of(v);
+      for (const int* e = eb; e != ee; ++e) {
+        const auto& ef = T.edge_faces[*e];
+        for (std::size_t i = 1; i < ef.size(); ++i) {
+          const int x = find(local(ef[0])), y = find(local(ef[i]));
+          if (x != y) parent[x] = y, --groups;
+        }
+      }
+      if (groups > 1) {
+        ++r.nonmanifold_vertices;
+        if (first < 0) first = v;
+      }
+    }
+    if (r.nonmanifold_vertices)
+      warn(plural(r.nonmanifold_vertices, "non-manifold vertex", "non-manifold vertices") +
+           " (faces around it form separate fans), first: vertex " + std::to_string(first));
+  }
+
+  // --- components (edge-connected) and orientation (through manifold edges) --------------------
+  std::vector<int> comp(nf, -1);
+  std::vector<int> queue;
+  queue.reserve(nf);
+  for (int s = 0; s < nf; ++s) {
+    if (comp[s] >= 0) continue;
+    const int c = r.components++;
+    queue.clear();
+    queue.push_back(s);
+    comp[s] = c;
+    for (std::size_t q = 0; q < queue.size(); ++q) {
+      const int f = queue[q];
+      for (int j = 0; j < 3; ++j)
+        for (int g : T.edge_faces[T.FE(f, j)])
+          if (comp[g] < 0) comp[g] = c, queue.push_back(g);
+    }
+  }
+  if (r.components > 1) warn(std::to_string(r.components) + " connected components");
+
+  if (opt.fix_orientation) {
+    // BFS over manifold edges: flip[g] says whether g must be reversed to agree with the seed.
+    std::vector<signed char> flip(nf, -1);
+    std::vector<char> flip_final(nf, 0);
+    long long first_bad_face = -1;
+    for (int s = 0; s < nf; ++s) {
+      if (flip[s] >= 0) continue;
+      queue.clear();
+      queue.push_back(s);
+      flip[s] = 0;
+      bool orientable = true;
+      for (std::size_t q = 0; q < queue.size(); ++q) {
+        const int f = queue[q];
+        for (int j = 0; j < 3; ++j) {
+          const int e = T.FE(f, j);
+          const auto& ef = T.edge_faces[e];
+          if (ef.size() != 2) continue;
+          const int g = ef[0] == f ? ef[1] : ef[0];
+          const int a = m.F(f, j), b = m.F(f, (j + 1) % 3);
+          // Consistent neighbours walk the shared edge in opposite directions.
+          const signed char want = static_cast<signed char>(flip[f] ^ (walks(m, g, a, b) ? 1 : 0));
+          if (flip[g] < 0) flip[g] = want, queue.push_back(g);
+          else if (flip[g] != want) {
+            orientable = false;
+            if (first_bad_face < 0) first_bad_face = g;
+          }
+        }
+      }
+      if (!orientable) { ++r.non_orientable_components; continue; }
+      long long n_flip = 0;
+      for (int f : queue) n_flip += flip[f];
+      // Flip the minority so that as few faces as possible change.
+      const bool invert = 2 * n_flip > static_cast<long long>(queue.size());
+      for (int f : queue) flip_final[f] = static_cast<char>(flip[f] ^ (invert ? 1 : 0));
+      if (opt.orient_outward) {
+        // A closed patch (no boundary or non-manifold edge) should enclose positive volume.
+        bool closed = true;
+        double vol = 0;
+        for (int f : queue) {
+          for (int j = 0; j < 3; ++j)
+            if (T.edge_faces[T.FE(f, j)].size() != 2) closed = false;
+          const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+          vol += (flip_final[f] ? -1.0 : 1.0) * a.dot(b.cross(c));
+        }
+        if (closed && vol < 0) {
+          for (int f : queue) flip_final[f] ^= 1;
+          ++r.outward_flipped_components;
+        }
+      }
+    }
+    for (int f = 0; f < nf; ++f)
+      if (flip_final[f]) {
+        std::swap(m.F(f, 1), m.F(f, 2));
+        ++r.flipped_faces;
+      }
+    if (r.flipped_faces)
+      warn(plural(r.flipped_faces, "face", "faces") + " flipped for consistent orientation" +
+           (r.outward_flipped_components
+                ? " (" + plural(r.outward_flipped_components, "closed component", "closed components") +
+                      " turned outward)"
+                : std::string()));
+    if (r.non_orientable_components)
+      warn(plural(r.non_orientable_components, "component is", "components are") +
+           " not orientable (left as read), first conflict at face " + std::to_string(first_bad_face));
+  }
+  return r;
+}
+
+}  // namespace hocurve
