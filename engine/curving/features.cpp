@@ -2,6 +2,7 @@
 
 #include "engine/core/error.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <numbers>

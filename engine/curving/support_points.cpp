@@ -2,6 +2,7 @@
 
 #include "engine/core/error.hpp"
 
+#include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
 
 #include <cmath>

@@ -3,6 +3,7 @@
 #include "engine/core/error.hpp"
 #include "engine/curving/support_points.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
