@@ -4,6 +4,7 @@
 
 #include <tiny_obj_loader.h>
 
+#include <charconv>
 #include <istream>
 #include <streambuf>
 
@@ -26,6 +27,35 @@ struct NoMaterials : tinyobj::MaterialReader {
   }
 };
 
+/// tinyobjloader's number parser can be one ulp off (it reads "1.75" as 1.7500000000000002).
+/// Re-reads the "v" lines with std::from_chars (correctly rounded); keeps tinyobjloader's values
+/// if the two disagree on the vertex count or a line does not parse.
+void reread_vertices(std::string_view b, std::vector<tinyobj::real_t>& xyz) {
+  std::vector<double> out;
+  out.reserve(xyz.size());
+  std::size_t p = 0;
+  while (p < b.size()) {
+    std::size_t e = b.find('\n', p);
+    if (e == std::string_view::npos) e = b.size();
+    std::size_t q = p;
+    while (q < e && (b[q] == ' ' || b[q] == '\t')) ++q;
+    if (q + 1 < e && b[q] == 'v' && (b[q + 1] == ' ' || b[q + 1] == '\t')) {
+      q += 2;
+      for (int d = 0; d < 3; ++d) {
+        while (q < e && (b[q] == ' ' || b[q] == '\t')) ++q;
+        double v = 0;
+        const char* first = b.data() + q + (q < e && b[q] == '+' ? 1 : 0);
+        auto [r, ec] = std::from_chars(first, b.data() + e, v);
+        if (ec != std::errc()) return;
+        out.push_back(v);
+        q = static_cast<std::size_t>(r - b.data());
+      }
+    }
+    p = e + 1;
+  }
+  if (out.size() == xyz.size()) std::copy(out.begin(), out.end(), xyz.begin());
+}
+
 std::string first_line(const std::string& s) {
   std::string t = s.substr(0, s.find('\n'));
   return t.empty() ? "parse error" : t;
@@ -44,6 +74,7 @@ void read_obj(std::string_view bytes, const std::string& name, ReadResult& out) 
   // triangulate=false: we fan-split polygons ourselves, so the rule is ours and documented.
   const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &in, &no_mtl, false, false);
   if (!ok) throw InputError(name, "OBJ: " + first_line(err));
+  reread_vertices(bytes, attrib.vertices);
   Mesh& m = out.mesh;
   const std::size_t nv = attrib.vertices.size() / 3;
   if (nv > static_cast<std::size_t>(INT32_MAX)) throw InputError(name, "too many vertices");

@@ -1,0 +1,219 @@
+// Round trips: small meshes written here by independent writers, read back by read_mesh_*.
+#include <doctest/doctest.h>
+
+#include "engine/core/error.hpp"
+#include "engine/io/read_mesh.hpp"
+#include "engine/io/weld_vertices.hpp"
+#include "io/io_test_util.hpp"
+
+#include <bit>
+
+using namespace hocurve;
+using namespace iotest;
+
+namespace {
+
+/// The faces of `got` are the faces of `want`, vertex by vertex, by position (exact compare).
+void check_same_faces(const Mesh& got, const Mesh& want) {
+  REQUIRE(got.num_faces() == want.num_faces());
+  for (int f = 0; f < want.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j)
+      for (int d = 0; d < 3; ++d) REQUIRE(got.V(got.F(f, j), d) == want.V(want.F(f, j), d));
+}
+
+/// Independent first-seen re-indexing with std::map: the welded mesh STL reading must give.
+Mesh first_seen(const Mesh& m) {
+  std::map<std::array<double, 3>, int> seen;
+  Mesh out;
+  std::vector<std::array<double, 3>> pts;
+  out.F.resize(m.num_faces(), 3);
+  for (int f = 0; f < m.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j) {
+      std::array<double, 3> p = {m.V(m.F(f, j), 0), m.V(m.F(f, j), 1), m.V(m.F(f, j), 2)};
+      auto [it, fresh] = seen.emplace(p, static_cast<int>(pts.size()));
+      if (fresh) pts.push_back(p);
+      out.F(f, j) = it->second;
+    }
+  out.V.resize(static_cast<int>(pts.size()), 3);
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    for (int d = 0; d < 3; ++d) out.V(i, d) = pts[i][d];
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("STL ascii and binary, plain and gzip: exact weld in first-seen order") {
+  const Mesh m = octahedron();
+  const Mesh want = first_seen(m);
+  struct Case { std::string name, data, format; bool gz; };
+  const std::vector<Case> cases = {
+      {"a.stl", stl_ascii(m), "stl-ascii", false},
+      {"b.stl", stl_binary(m), "stl-binary", false},
+      {"c.stl", stl_binary(m, "solid but binary (SolidWorks style header)"), "stl-binary", false},
+      {"a.stl.gz", gzip(stl_ascii(m)), "stl-ascii", true},
+      {"noname", gzip(stl_binary(m)), "stl-binary", true},
+  };
+  for (const auto& c : cases) {
+    CAPTURE(c.name);
+    CHECK(detect_format(c.data, c.name) == c.format);
+    const ReadResult r = read_mesh_bytes(c.data, c.name);
+    CHECK(r.report.format == c.format);
+    CHECK(r.report.gzip == c.gz);
+    CHECK(r.report.facets_read == 8);
+    CHECK(r.report.welded_vertices == 24 - 6);
+    CHECK(r.mesh.V == want.V);
+    CHECK(r.mesh.F == want.F);
+  }
+  // Through a file too.
+  write_file(tmp_path("oct.stl.gz"), gzip(stl_binary(m)));
+  const ReadResult r = read_mesh_file(tmp_path("oct.stl.gz"));
+  CHECK(r.mesh.F == want.F);
+  // Without welding every facet keeps its own corners.
+  ReadOptions no_weld;
+  no_weld.weld = false;
+  const ReadResult u = read_mesh_bytes(stl_binary(m), "u.stl", no_weld);
+  CHECK(u.mesh.num_vertices() == 24);
+  check_same_faces(u.mesh, m);
+}
+
+TEST_CASE("ASCII STL with two solids gives two surface entities") {
+  const Mesh m = octahedron();
+  const std::string text = stl_ascii(m, "one") + stl_ascii(m, "two");
+  const ReadResult r = read_mesh_bytes(text, "two.stl");
+  REQUIRE(r.mesh.num_faces() == 16);
+  REQUIRE(r.mesh.face_entity.size() == 16);
+  for (int f = 0; f < 16; ++f) CHECK(r.mesh.face_entity[f] == (f < 8 ? 1 : 2));
+}
+
+TEST_CASE("weld_exact: -0 equals +0, nothing else is merged") {
+  const float p[] = {0.f, 1.f, 2.f, -0.f, 1.f, 2.f, std::nextafter(0.f, 1.f), 1.f, 2.f, 0.f, 1.f, 2.f};
+  const auto w = weld_exact(p, 4);
+  CHECK(w.points.size() == 6);
+  CHECK(w.index == std::vector<int>{0, 0, 1, 0});
+  // Many points on a grid, each repeated: count and order independent of hashing.
+  std::vector<double> g;
+  for (int k = 0; k < 3; ++k)
+    for (int i = 0; i < 20000; ++i) g.insert(g.end(), {i * 0.1, -i * 0.3, 1.0 / (i + 1)});
+  const auto wg = weld_exact(g.data(), g.size() / 3);
+  CHECK(wg.points.size() == 3 * 20000);
+  for (int i = 0; i < 60000; ++i) REQUIRE(wg.index[i] == i % 20000);
+}
+
+TEST_CASE("OBJ: fan-split polygons, negative indices, double precision") {
+  const std::string text =
+      "# quad and pentagon\nmtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.1234567890123456789 2 0\n"
+      "usemtl x\ng quad\nf 1 2 3 4\ng tri\nf -3 -2 -1\nl 1 2\n";
+  CHECK(detect_format(text, "") == "obj");
+  const ReadResult r = read_mesh_bytes(text, "q.obj");
+  CHECK(r.report.format == "obj");
+  REQUIRE(r.mesh.num_faces() == 3);
+  Eigen::MatrixXi F(3, 3);
+  F << 0, 1, 2, 0, 2, 3, 2, 3, 4;
+  CHECK(r.mesh.F == F);
+  CHECK(r.mesh.V(4, 0) == 0.1234567890123456789);  // the double build keeps all digits
+  const Mesh m = octahedron();
+  const ReadResult o = read_mesh_bytes(gzip(obj_text(m)), "o.obj.gz");
+  CHECK(o.report.gzip);
+  CHECK(o.mesh.V == m.V);
+  CHECK(o.mesh.F == m.F);
+}
+
+TEST_CASE("OFF: comments, counts on the header line, quads, colours") {
+  const Mesh m = octahedron();
+  const ReadResult r = read_mesh_bytes(off_text(m), "m.off");
+  CHECK(r.report.format == "off");
+  CHECK(r.mesh.V == m.V);
+  CHECK(r.mesh.F == m.F);
+  const std::string quad = "OFF 4 1 0\n0 0 0\n1 0 0 255 0 0\n1 1 0\n0 1 0\n4 0 1 2 3 0.5 0.5 0.5\n";
+  const ReadResult q = read_mesh_bytes(quad, "q.off");
+  REQUIRE(q.mesh.num_faces() == 2);
+  CHECK(q.mesh.F.row(1) == Eigen::RowVector3i(0, 2, 3));
+}
+
+namespace {
+
+template <class T>
+void put(std::string& s, T v, bool big) {
+  char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));
+  if (big) std::reverse(b, b + sizeof(T));
+  s.append(b, sizeof(T));
+}
+
+/// PLY with extra properties and elements around the ones we need; vertex coordinates as `vt`.
+std::string ply(const Mesh& m, const std::string& format, bool double_xyz, const std::string& list_prop) {
+  std::ostringstream h;
+  h << "ply\nformat " << format << " 1.0\ncomment made by the test\n"
+    << "element vertex " << m.num_vertices() << "\n"
+    << "property uchar red\n"
+    << (double_xyz ? "property double x\nproperty double y\nproperty double z\n"
+                   : "property float x\nproperty float y\nproperty float z\n")
+    << "property list uchar int extra_list\n"
+    << "element face " << m.num_faces() << "\n"
+    << "property short flags\nproperty list " << list_prop << "\n"
+    << "element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n";
+  std::string s = h.str();
+  const bool big = format == "binary_big_endian";
+  if (format == "ascii") {
+    std::ostringstream d;
+    for (int v = 0; v < m.num_vertices(); ++v)
+      d << "7 " << num(m.V(v, 0)) << " " << num(m.V(v, 1)) << " " << num(m.V(v, 2)) << " 2 5 6\n";
+    for (int f = 0; f < m.num_faces(); ++f) d << "-1 3 " << m.F(f, 0) << " " << m.F(f, 1) << " " << m.F(f, 2) << "\n";
+    d << "0 1\n";
+    return s + d.str();
+  }
+  for (int v = 0; v < m.num_vertices(); ++v) {
+    put<std::uint8_t>(s, 7, big);
+    for (int d = 0; d < 3; ++d)
+      if (double_xyz) put<double>(s, m.V(v, d), big); else put<float>(s, static_cast<float>(m.V(v, d)), big);
+    put<std::uint8_t>(s, 2, big);
+    put<std::int32_t>(s, 5, big);
+    put<std::int32_t>(s, 6, big);
+  }
+  const bool u8count = list_prop.rfind("uchar", 0) == 0;
+  for (int f = 0; f < m.num_faces(); ++f) {
+    put<std::int16_t>(s, -1, big);
+    if (u8count) put<std::uint8_t>(s, 3, big); else put<std::int32_t>(s, 3, big);
+    for (int j = 0; j < 3; ++j)
+      if (list_prop.find("uint ") != std::string::npos) put<std::uint32_t>(s, m.F(f, j), big);
+      else put<std::int32_t>(s, m.F(f, j), big);
+  }
+  put<std::int32_t>(s, 0, big);
+  put<std::int32_t>(s, 1, big);
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("PLY ascii, binary little and big endian, float/double, both index list names") {
+  const Mesh m = octahedron();
+  for (const std::string format : {"ascii", "binary_little_endian", "binary_big_endian"})
+    for (const bool dbl : {false, true})
+      for (const std::string list : {"uchar int vertex_indices", "int uint vertex_index"})
+        for (const bool gz : {false, true}) {
+          CAPTURE(format);
+          CAPTURE(dbl);
+          CAPTURE(list);
+          CAPTURE(gz);
+          const std::string data = ply(m, format, dbl, list);
+          const ReadResult r = read_mesh_bytes(gz ? gzip(data) : data, "m.ply");
+          CHECK(r.report.format == (format == "ascii" ? "ply-ascii" : "ply-binary"));
+          CHECK(r.report.gzip == gz);
+          CHECK(r.mesh.V == m.V);
+          CHECK(r.mesh.F == m.F);
+        }
+}
+
+TEST_CASE("detect_format on content, name only as a hint") {
+  const Mesh m = octahedron();
+  CHECK(detect_format(stl_ascii(m), "x.obj") == "stl-ascii");
+  CHECK(detect_format(off_text(m), "x.stl") == "off");
+  CHECK(detect_format(obj_text(m), "x.ply") == "obj");
+  CHECK(detect_format("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n", "") == "msh4");
+  CHECK(detect_format("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n", "") == "msh2");
+  CHECK(detect_format(ply(m, "binary_little_endian", false, "uchar int vertex_indices"), "") == "ply-binary");
+  CHECK(detect_format("hello world, this is not a mesh\n", "x.txt") == "");
+  CHECK(detect_format(gzip("just some text\n"), "x.gz") == "");
+  // Binary STL with trailing bytes is still found by its header count.
+  CHECK(detect_format(stl_binary(m) + "trailing text", "noext") == "stl-binary");
+}
