@@ -1,0 +1,232 @@
+// Feature detection: sharp edges, boundaries, non-manifold edges, entity borders, curves, corners.
+#include "engine/core/error.hpp"
+#include "engine/core/topology.hpp"
+#include "engine/curving/features.hpp"
+#include "engine/curving/test_meshes.hpp"
+
+#include <doctest/doctest.h>
+
+#include <array>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <set>
+#include <vector>
+
+using namespace hocurve;
+
+namespace {
+
+Features detect(const Mesh& m, const FeatureOptions& opt = {}) {
+  return detect_features(m, build_topology(m.F, m.num_vertices()), opt);
+}
+
+/// Axis-aligned unit cube, each face an n x n grid of quads split in two (shared vertices).
+Mesh cube(int n) {
+  std::map<std::array<int, 3>, int> id;
+  std::vector<Eigen::Vector3d> V;
+  std::vector<std::array<int, 3>> F;
+  auto vert = [&](std::array<int, 3> g) {
+    auto it = id.find(g);
+    if (it != id.end()) return it->second;
+    V.push_back(Eigen::Vector3d(g[0], g[1], g[2]) / n);
+    return id[g] = static_cast<int>(V.size()) - 1;
+  };
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+          auto g = [&](int a, int b) {
+            std::array<int, 3> p{};
+            p[axis] = side * n, p[u] = a, p[w] = b;
+            return vert(p);
+          };
+          const int a = g(i, j), b = g(i + 1, j), c = g(i + 1, j + 1), d = g(i, j + 1);
+          // (u x w) = +axis: counter-clockwise in (u,w) faces outward on the + side.
+          if (side == 1) F.push_back({a, b, c}), F.push_back({a, c, d});
+          else F.push_back({a, c, b}), F.push_back({a, d, c});
+        }
+    }
+  Mesh m;
+  m.V.resize(V.size(), 3);
+  for (size_t i = 0; i < V.size(); ++i) m.V.row(i) = V[i].transpose();
+  m.F.resize(F.size(), 3);
+  for (size_t i = 0; i < F.size(); ++i) m.F.row(i) << F[i][0], F[i][1], F[i][2];
+  return m;
+}
+
+/// Flat regular k-gon disk: centre fan, open boundary.
+Mesh polygon_disk(int k) {
+  Mesh m;
+  m.V.resize(k + 1, 3);
+  m.V.row(0) << 0, 0, 0;
+  for (int i = 0; i < k; ++i)
+    m.V.row(i + 1) << std::cos(2 * std::numbers::pi * i / k), std::sin(2 * std::numbers::pi * i / k), 0;
+  m.F.resize(k, 3);
+  for (int i = 0; i < k; ++i) m.F.row(i) << 0, 1 + i, 1 + (i + 1) % k;
+  return m;
+}
+
+/// Every curve is a connected vertex chain over feature edges, ends at corners or closes, and
+/// the curves partition the feature edges.
+void check_curves(const Mesh& m, const Features& F) {
+  const Topology T = build_topology(m.F, m.num_vertices());
+  std::map<std::pair<int, int>, int> edge_of;
+  for (int e = 0; e < T.num_edges(); ++e) edge_of[{T.E(e, 0), T.E(e, 1)}] = e;
+  std::vector<int> used(T.num_edges(), 0);
+  for (size_t c = 0; c < F.curves.size(); ++c) {
+    const auto& chain = F.curves[c];
+    REQUIRE(chain.size() >= 2);
+    const bool closed = chain.front() == chain.back();
+    if (!closed) {
+      CHECK(F.vertex_corner[chain.front()]);
+      CHECK(F.vertex_corner[chain.back()]);
+    }
+    for (size_t i = 0; i + 1 < chain.size(); ++i) {
+      const int a = std::min(chain[i], chain[i + 1]), b = std::max(chain[i], chain[i + 1]);
+      REQUIRE(edge_of.count({a, b}));
+      const int e = edge_of[{a, b}];
+      CHECK(F.edge_feature[e]);
+      CHECK(F.edge_curve[e] == static_cast<int>(c));
+      ++used[e];
+      if (i > 0) CHECK(!F.vertex_corner[chain[i]]);  // interior vertices are not corners
+    }
+  }
+  long long nfeat = 0;
+  for (int e = 0; e < T.num_edges(); ++e) {
+    CHECK(used[e] == (F.edge_feature[e] ? 1 : 0));
+    nfeat += F.edge_feature[e];
+  }
+  CHECK(nfeat == F.feature_edges);
+}
+
+}  // namespace
+
+TEST_CASE("smooth closed surfaces have no features") {
+  for (const Mesh& m : {icosphere(3), torus_grid(48, 16, 1.0, 0.4), ellipsoid_mesh(3, 1, 0.8, 0.6)}) {
+    const Features F = detect(m);
+    CHECK(F.feature_edges == 0);
+    CHECK(F.curves.empty());
+    CHECK(F.corners == 0);
+  }
+}
+
+TEST_CASE("cube: 12 sharp curves between 8 corners") {
+  const int n = 4;
+  const Mesh m = cube(n);
+  const Features F = detect(m);
+  CHECK(F.sharp_edges == 12 * n);
+  CHECK(F.boundary_edges == 0);
+  CHECK(F.feature_edges == 12 * n);
+  CHECK(F.corners == 8);
+  CHECK(F.closed_curves == 0);
+  REQUIRE(F.curves.size() == 12);
+  for (const auto& c : F.curves) CHECK(c.size() == static_cast<size_t>(n + 1));
+  // The corners are exactly the cube's vertices.
+  for (int v = 0; v < m.num_vertices(); ++v) {
+    const auto p = m.V.row(v);
+    const bool cube_corner = (p.array() == 0 || p.array() == 1).all();
+    CHECK(bool(F.vertex_corner[v]) == cube_corner);
+  }
+  check_curves(m, F);
+  // Threshold: a 90° dihedral is not sharp for a threshold above 90°.
+  FeatureOptions loose;
+  loose.angle_deg = 91;
+  CHECK(detect(m, loose).feature_edges == 0);
+}
+
+TEST_CASE("cylinder: two closed rim loops, entity borders counted") {
+  const int k = 24;
+  const Mesh m = capped_cylinder(k, 6, 1.0, 2.0);
+  FeatureOptions no_entities;
+  no_entities.entity_borders = false;
+  for (const FeatureOptions& opt : {FeatureOptions{}, no_entities}) {
+    const Features F = detect(m, opt);
+    CHECK(F.sharp_edges == 2 * k);  // side dihedral 360/24 = 15° < 35°, rims 90°
+    CHECK(F.entity_border_edges == 2 * k);
+    CHECK(F.feature_edges == 2 * k);
+    CHECK(F.corners == 0);
+    CHECK(F.closed_curves == 2);
+    REQUIRE(F.curves.size() == 2);
+    for (const auto& c : F.curves) {
+      CHECK(c.size() == static_cast<size_t>(k + 1));
+      CHECK(c.front() == c.back());
+      for (int v : c) CHECK(std::abs(std::abs(m.V(v, 2)) - 1.0) < 1e-15);
+    }
+    check_curves(m, F);
+  }
+}
+
+TEST_CASE("entity borders without geometry: the uv sphere's equator") {
+  const int nlon = 32;
+  const Mesh m = uv_sphere(16, nlon);
+  Features F = detect(m);
+  CHECK(F.sharp_edges == 0);
+  CHECK(F.entity_border_edges == nlon);
+  CHECK(F.feature_edges == nlon);
+  REQUIRE(F.curves.size() == 1);
+  CHECK(F.closed_curves == 1);
+  for (int v : F.curves[0]) CHECK(m.V(v, 2) == 0.0);
+  check_curves(m, F);
+  FeatureOptions off;
+  off.entity_borders = false;
+  F = detect(m, off);
+  CHECK(F.entity_border_edges == nlon);  // still counted, no longer a feature
+  CHECK(F.feature_edges == 0);
+}
+
+TEST_CASE("open boundary: corners where the boundary turns more than corner_angle") {
+  // Octagon turns 45° per vertex > 35°: 8 corners, 8 one-edge curves.
+  Features F = detect(polygon_disk(8));
+  CHECK(F.boundary_edges == 8);
+  CHECK(F.corners == 8);
+  CHECK(F.curves.size() == 8);
+  check_curves(polygon_disk(8), F);
+  // 16-gon turns 22.5°: one closed loop, no corner.
+  F = detect(polygon_disk(16));
+  CHECK(F.corners == 0);
+  CHECK(F.closed_curves == 1);
+  REQUIRE(F.curves.size() == 1);
+  CHECK(F.curves[0].size() == 17);
+  check_curves(polygon_disk(16), F);
+  FeatureOptions tight;
+  tight.corner_angle_deg = 20;
+  CHECK(detect(polygon_disk(16), tight).corners == 16);
+}
+
+TEST_CASE("non-manifold edge: three fins on one edge") {
+  Mesh m;
+  m.V.resize(5, 3);
+  m.V << 0, 0, 0, 0, 0, 1, 1, 0, 0, -0.5, 0.8, 0, -0.5, -0.8, 0;
+  m.F.resize(3, 3);
+  m.F << 0, 1, 2, 0, 1, 3, 0, 1, 4;
+  const Features F = detect(m);
+  CHECK(F.nonmanifold_edges == 1);
+  CHECK(F.boundary_edges == 6);
+  CHECK(F.feature_edges == 7);
+  // Vertices 0 and 1 have feature valence 3: corners; the fin tips turn by 90°+.
+  CHECK(F.vertex_corner[0]);
+  CHECK(F.vertex_corner[1]);
+  check_curves(m, F);
+}
+
+TEST_CASE("orientation: reversing every face changes nothing; deterministic") {
+  Mesh m = cube(3);
+  const Features a = detect(m);
+  Mesh r = m;
+  r.F.col(1).swap(r.F.col(2));
+  const Features b = detect(r);
+  CHECK(a.edge_feature == b.edge_feature);
+  CHECK(a.vertex_corner == b.vertex_corner);
+  CHECK(a.curves == b.curves);
+  const Features c = detect(m);
+  CHECK(a.curves == c.curves);
+  CHECK(a.edge_curve == c.edge_curve);
+}
+
+TEST_CASE("bad options are refused") {
+  FeatureOptions bad;
+  bad.angle_deg = -1;
+  CHECK_THROWS_AS(detect(icosphere(0), bad), InputError);
+}
