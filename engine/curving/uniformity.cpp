@@ -42,26 +42,34 @@ Uniformity check_uniformity(const Mesh& mesh, const Topology& T, const Uniformit
   std::vector<double> len(T.num_edges());
   for (int e = 0; e < T.num_edges(); ++e) len[e] = (mesh.V.row(T.E(e, 0)) - mesh.V.row(T.E(e, 1))).norm();
   const int nf = mesh.num_faces();
-  std::vector<double> area(nf), aspect;
+  std::vector<double> area(nf), aspect, aspect_n;
   aspect.reserve(nf);
-  long long needles = 0, degenerate = 0;
+  aspect_n.reserve(nf);
+  long long needles = 0, needles_n = 0, degenerate = 0;
   for (int f = 0; f < nf; ++f) {
     const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
     area[f] = 0.5 * (b - a).cross(c - a).norm();
-    const double lmax = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    const double l0 = (b - a).norm(), l1 = (c - b).norm(), l2 = (a - c).norm();
+    const double lmax = std::max({l0, l1, l2});
     // Longest edge over shortest altitude; the shortest altitude is 2A / longest edge.
     if (area[f] > 0) {
       const double asp = lmax * lmax / (2 * area[f]);
       aspect.push_back(asp);
       if (asp > opt.needle_aspect) ++needles;
+      // inradius = 2A / perimeter
+      const double asp_n = lmax * (l0 + l1 + l2) / (4 * std::sqrt(3.0) * area[f]);
+      aspect_n.push_back(asp_n);
+      if (asp_n > opt.needle_aspect) ++needles_n;
     } else {
-      ++needles, ++degenerate;  // zero area: infinitely thin, kept out of the aspect spread
+      ++needles, ++needles_n, ++degenerate;  // zero area: infinitely thin, kept out of the aspect spreads
     }
   }
   U.edge_length = spread_of(std::move(len));
   U.area = spread_of(std::move(area));
   U.aspect = spread_of(std::move(aspect));
+  U.aspect_normalized = spread_of(std::move(aspect_n));
   U.needle_share = nf ? static_cast<double>(needles) / nf : 0.0;
+  U.needle_share_normalized = nf ? static_cast<double>(needles_n) / nf : 0.0;
   U.degenerate_faces = degenerate;
 
   char buf[200];

@@ -22,8 +22,13 @@ struct Spread {
 };
 
 struct Uniformity {
-  Spread edge_length, area, aspect;
-  double needle_share = 0;           ///< share of faces with aspect > needle_aspect (zero-area faces count)
+  Spread edge_length, area;
+  Spread aspect;                     ///< longest edge / shortest altitude (2/sqrt(3) when equilateral)
+  double needle_share = 0;           ///< share of faces with aspect > needle_aspect (zero-area faces count); drives the verdict
+  /// Normalised aspect ratio longest edge / (2 sqrt(3) inradius), 1 when equilateral (the
+  /// measure of the shared MANIFEST.tsv frac_aspect_gt10 column, and of many mesh generators).
+  Spread aspect_normalized;
+  double needle_share_normalized = 0;  ///< share of faces with aspect_normalized > needle_aspect (zero-area count)
   long long degenerate_faces = 0;    ///< zero-area faces (not in the aspect spread)
   bool uniform = true;
   std::string reason;  ///< why it is not uniform (empty when uniform)
