@@ -1,0 +1,164 @@
+#include "server/job_options.hpp"
+
+#include "server/problem.hpp"
+
+#include <cmath>
+#include <set>
+
+namespace hocurve::server {
+namespace {
+
+struct Errors {
+  nlohmann::json list = nlohmann::json::array();
+  void add(const std::string& key, const std::string& msg) {
+    list.push_back({{"pointer", "/options/" + key}, {"message", msg}});
+  }
+};
+
+std::string as_text(const nlohmann::json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  return v.dump();
+}
+
+bool parse_int(const nlohmann::json& v, long long& out) {
+  if (v.is_number_integer()) { out = v.get<long long>(); return true; }
+  if (v.is_number_float()) {
+    double d = v.get<double>();
+    if (std::floor(d) != d || std::abs(d) > 1e15) return false;
+    out = (long long)d;
+    return true;
+  }
+  if (!v.is_string()) return false;
+  const std::string s = v.get<std::string>();
+  if (s.empty() || s.size() > 18) return false;
+  size_t i = (s[0] == '-' || s[0] == '+') ? 1 : 0;
+  if (i == s.size()) return false;
+  for (size_t j = i; j < s.size(); ++j)
+    if (s[j] < '0' || s[j] > '9') return false;
+  out = std::stoll(s);
+  return true;
+}
+
+bool parse_double(const nlohmann::json& v, double& out) {
+  if (v.is_number()) { out = v.get<double>(); return std::isfinite(out); }
+  if (!v.is_string()) return false;
+  const std::string s = v.get<std::string>();
+  try {
+    size_t pos = 0;
+    out = std::stod(s, &pos);
+    return pos == s.size() && std::isfinite(out);
+  } catch (...) {
+    return false;
+  }
+}
+
+bool parse_bool(const nlohmann::json& v, bool& out) {
+  if (v.is_boolean()) { out = v.get<bool>(); return true; }
+  if (v.is_number_integer() && (v == 0 || v == 1)) { out = v == 1; return true; }
+  if (!v.is_string()) return false;
+  const std::string s = v.get<std::string>();
+  if (s == "1" || s == "true" || s == "yes" || s == "") { out = true; return true; }
+  if (s == "0" || s == "false" || s == "no") { out = false; return true; }
+  return false;
+}
+
+}  // namespace
+
+nlohmann::json options_from_query(const std::multimap<std::string, std::string>& params) {
+  nlohmann::json raw = nlohmann::json::object();
+  for (auto& [k, v] : params) {
+    if (raw.contains(k))
+      throw ApiError(400, "invalid-options", "query parameter '" + k + "' given more than once",
+                     {{"errors", {{{"pointer", "/options/" + k}, {"message", "repeated"}}}}});
+    raw[k] = v;
+  }
+  return raw;
+}
+
+nlohmann::json normalise_options(const nlohmann::json& raw) {
+  if (!raw.is_object())
+    throw ApiError(400, "invalid-options", "options must be a JSON object, got " + std::string(raw.type_name()));
+  static const std::set<std::string> known = {"mode", "order", "nodes", "format", "binary", "faces", "ratio"};
+  Errors err;
+  for (auto& [k, v] : raw.items())
+    if (!known.count(k))
+      err.add(k, "unknown option '" + k + "' (known: mode, order, nodes, format, binary, faces, ratio)");
+
+  nlohmann::json out = nlohmann::json::object();
+  std::string mode = "curve";
+  if (raw.contains("mode")) {
+    mode = as_text(raw["mode"]);
+    if (mode != "curve" && mode != "coarsen") err.add("mode", "mode must be 'curve' or 'coarsen', got '" + mode + "'");
+  }
+  out["mode"] = mode;
+
+  long long order = 3;
+  if (raw.contains("order")) {
+    if (!parse_int(raw["order"], order) || order < kMinOrder || order > kMaxOrder)
+      err.add("order", "order must be an integer from " + std::to_string(kMinOrder) + " to " +
+                           std::to_string(kMaxOrder) + ", got " + as_text(raw["order"]));
+  }
+  out["order"] = order;
+
+  if (mode == "coarsen") {
+    for (const char* k : {"nodes", "format", "binary"})
+      if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=curve only");
+    bool has_faces = raw.contains("faces"), has_ratio = raw.contains("ratio");
+    if (has_faces == has_ratio) err.add(has_faces ? "ratio" : "faces", "mode=coarsen needs exactly one of faces or ratio");
+    if (has_faces) {
+      long long faces = 0;
+      if (!parse_int(raw["faces"], faces) || faces < 4 || faces > 100000000)
+        err.add("faces", "faces must be an integer from 4 to 1e8, got " + as_text(raw["faces"]));
+      out["faces"] = faces;
+    }
+    if (has_ratio) {
+      double ratio = 0;
+      if (!parse_double(raw["ratio"], ratio) || !(ratio > 0 && ratio <= 1))
+        err.add("ratio", "ratio must be a number in (0, 1], got " + as_text(raw["ratio"]));
+      out["ratio"] = ratio;
+    }
+  } else {
+    for (const char* k : {"faces", "ratio"})
+      if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=coarsen only");
+    std::string nodes = raw.contains("nodes") ? as_text(raw["nodes"]) : "lobatto";
+    if (nodes != "lobatto" && nodes != "equispaced")
+      err.add("nodes", "nodes must be 'lobatto' or 'equispaced', got '" + nodes + "'");
+    out["nodes"] = nodes;
+    std::string format = raw.contains("format") ? as_text(raw["format"]) : "msh41";
+    if (format != "msh41" && format != "msh22")
+      err.add("format", "format must be 'msh41' or 'msh22', got '" + format + "'");
+    out["format"] = format;
+    bool binary = false;
+    if (raw.contains("binary") && !parse_bool(raw["binary"], binary))
+      err.add("binary", "binary must be 0/1/true/false, got " + as_text(raw["binary"]));
+    out["binary"] = binary;
+  }
+  if (!err.list.empty()) {
+    std::string detail;
+    for (auto& e : err.list) detail += (detail.empty() ? "" : "; ") + e["message"].get<std::string>();
+    throw ApiError(400, "invalid-options", detail, {{"errors", err.list}});
+  }
+  return out;
+}
+
+std::vector<std::string> worker_argv(const std::string& program, const nlohmann::json& o, const std::string& input,
+                                     const std::string& output, const std::string& stats, int threads) {
+  std::vector<std::string> a = {program, o.value("mode", "curve"), input, "-o", output, "--order",
+                                std::to_string(o.value("order", 3))};
+  if (o.value("mode", "curve") == "coarsen") {
+    if (o.contains("faces")) a.insert(a.end(), {"--faces", std::to_string(o["faces"].get<long long>())});
+    if (o.contains("ratio")) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.17g", o["ratio"].get<double>());
+      a.insert(a.end(), {"--ratio", buf});
+    }
+  } else {
+    a.insert(a.end(), {"--nodes", o.value("nodes", "lobatto"), "--format", o.value("format", "msh41")});
+    if (o.value("binary", false)) a.push_back("--binary");
+    a.insert(a.end(), {"--threads", std::to_string(threads)});
+  }
+  a.insert(a.end(), {"--stats", stats, "--progress"});
+  return a;
+}
+
+}  // namespace hocurve::server

@@ -1,0 +1,402 @@
+#include "server/job_runner.hpp"
+
+#include "server/job_options.hpp"
+#include "server/log.hpp"
+#include "server/problem.hpp"
+
+#include <cerrno>
+#include <chrono>
+#include <csignal>
+#include <cstring>
+#include <fcntl.h>
+#include <filesystem>
+#include <fstream>
+#include <poll.h>
+#include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace hocurve::server {
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Last non-empty line of a (small) text file, at most 500 characters.
+std::string last_line(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, last;
+  while (std::getline(in, line)) {
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    if (!line.empty()) last = line;
+  }
+  if (last.size() > 500) last = last.substr(0, 500) + "...";
+  return last;
+}
+
+std::string signal_name(int sig) {
+  const char* d = strsignal(sig);
+  return "signal " + std::to_string(sig) + (d ? std::string(" (") + d + ")" : "");
+}
+
+struct ProcessOutcome {
+  enum Kind { kExited, kSignaled, kTimeout, kCancelled, kInterrupted, kSpawnFailed } kind = kExited;
+  int code = 0;  // exit code or signal
+  std::string spawn_error;
+};
+
+}  // namespace
+
+JobRunner::JobRunner(const Config& config, std::string worker_bin, JobStore& store, Metrics& metrics)
+    : config_(config), worker_bin_(std::move(worker_bin)), store_(store), metrics_(metrics) {}
+
+JobRunner::~JobRunner() {
+  if (!stopped_) shutdown(0);
+}
+
+void JobRunner::start() {
+  for (int i = 0; i < config_.workers; ++i) threads_.emplace_back([this] { worker_loop(); });
+  janitor_ = std::thread([this] { janitor_loop(); });
+}
+
+bool JobRunner::enqueue(const std::string& id, bool force, bool front) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!force && (int)queue_.size() >= config_.max_queue) return false;
+  if (front) queue_.push_front(id);
+  else queue_.push_back(id);
+  cv_.notify_one();
+  return true;
+}
+
+void JobRunner::cancel(const std::string& id) {
+  bool was_queued = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = std::find(queue_.begin(), queue_.end(), id);
+    if (it != queue_.end()) {
+      queue_.erase(it);
+      was_queued = true;
+    } else if (auto rt = running_.find(id); rt != running_.end()) {
+      cancel_requests_.insert(id);
+      if (rt->second > 0) ::kill(-rt->second, SIGKILL);
+    }
+  }
+  if (was_queued) {
+    double now = now_seconds();
+    store_.update(id, [&](Job& j) {
+      if (j.terminal()) return;
+      j.status = "cancelled";
+      j.stage = "cancelled";
+      j.finished = now;
+      j.expires = now + std::min(config_.retention, 60.0);
+      j.error = make_problem(409, "cancelled", "job " + id + " was cancelled before it started");
+    });
+    metrics_.job_finished("cancelled", 0);
+    log_info("job cancelled", {{"job_id", id}, {"was", "queued"}});
+  }
+}
+
+size_t JobRunner::queue_depth() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return queue_.size();
+}
+
+size_t JobRunner::running() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return running_.size();
+}
+
+void JobRunner::shutdown(double grace_s) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  if (stopped_) return;
+  draining_ = true;
+  cv_.notify_all();
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(grace_s);
+  cv_.wait_until(lock, deadline, [&] { return running_.empty(); });
+  kill_all_ = true;
+  for (auto& [id, pid] : running_)
+    if (pid > 0) ::kill(-pid, SIGKILL);
+  stopped_ = true;
+  cv_.notify_all();
+  lock.unlock();
+  for (auto& t : threads_) t.join();
+  threads_.clear();
+  if (janitor_.joinable()) janitor_.join();
+}
+
+void JobRunner::worker_loop() {
+  for (;;) {
+    std::string id;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      cv_.wait(lock, [&] { return stopped_ || draining_ || !queue_.empty(); });
+      if (stopped_ || draining_) return;
+      id = queue_.front();
+      queue_.pop_front();
+      running_[id] = 0;
+    }
+    try {
+      run_job(id);
+    } catch (const std::exception& e) {
+      log_error("job runner error", {{"job_id", id}, {"error", e.what()}});
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    running_.erase(id);
+    cancel_requests_.erase(id);
+    cv_.notify_all();
+  }
+}
+
+void JobRunner::janitor_loop() {
+  // Deletes jobs whose retention ended. Wakes up at least every second so shutdown stays prompt.
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (!stopped_) {
+    cv_.wait_for(lock, std::chrono::seconds(1));
+    if (stopped_) break;
+    lock.unlock();
+    double now = now_seconds();
+    for (const Job& j : store_.all())
+      if (j.terminal() && j.expires > 0 && j.expires <= now) {
+        store_.remove(j.id);
+        log_info("job expired", {{"job_id", j.id}});
+      }
+    lock.lock();
+  }
+}
+
+void JobRunner::run_job(const std::string& id) {
+  const double t0 = now_seconds();
+  auto claimed = store_.update(id, [&](Job& j) {
+    if (j.terminal()) return;
+    j.status = "running";
+    j.stage = "starting";
+    j.fraction = 0;
+    j.started = t0;
+    j.attempts += 1;
+  });
+  if (!claimed || claimed->terminal()) return;
+  const Job job = *claimed;
+  const std::string dir = store_.job_dir(id);
+  const std::string input = dir + "/" + job.input.value("filename", "input");
+  const std::string part = dir + "/result.part.msh", result = dir + "/result.msh";
+  const std::string stats = dir + "/stats.json", logfile = dir + "/worker.log";
+  std::error_code ec;
+  fs::remove(part, ec);
+
+  auto finish = [&](const std::string& status, nlohmann::json error) {
+    double now = now_seconds();
+    std::uint64_t bytes = 0;
+    nlohmann::json stats_json;
+    if (status == "succeeded") {
+      bytes = fs::file_size(result, ec);
+      std::ifstream in(stats);
+      if (in) stats_json = nlohmann::json::parse(in, nullptr, false);
+      if (stats_json.is_discarded()) stats_json = nullptr;
+      store_.add_disk_bytes((std::int64_t)bytes);
+    } else {
+      fs::remove(part, ec);
+    }
+    store_.update(id, [&](Job& j) {
+      j.status = status;
+      j.stage = status;
+      if (status == "succeeded") j.fraction = 1;
+      j.finished = now;
+      j.expires = now + (status == "cancelled" ? std::min(config_.retention, 60.0) : config_.retention);
+      j.error = error;
+      j.stats = stats_json;
+      j.result_bytes = bytes;
+    });
+    metrics_.job_finished(status, now - t0);
+    nlohmann::json f = {{"job_id", id}, {"status", status}, {"duration_ms", (long long)((now - t0) * 1000)}};
+    if (!error.is_null()) f["error_code"] = error.value("code", "");
+    log_info("job finished", f);
+  };
+
+  if (job.attempts > config_.max_attempts) {
+    finish("failed", make_problem(500, "worker-crashed",
+                                  "job was interrupted " + std::to_string(job.attempts - 1) +
+                                      " times (daemon restarts); giving up"));
+    return;
+  }
+
+  std::vector<std::string> args = worker_argv(worker_bin_, job.options, input, part, stats, config_.job_threads);
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  log_info("job started", {{"job_id", id}, {"attempt", job.attempts}, {"argv", args}});
+
+  ProcessOutcome outcome;
+  int pipefd[2];
+  if (::pipe2(pipefd, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
+  int logfd = ::open(logfile.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  const rlim_t mem = (rlim_t)(config_.job_memory_mb * 1024 * 1024);
+  const rlim_t cpu = (rlim_t)(config_.job_timeout * std::max(1, config_.job_threads) + 5);
+  const pid_t parent = ::getpid();
+
+  pid_t pid;
+  {
+    // Fork under the lock so that cancel() sees either no pid or the real one.
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (cancel_requests_.count(id) || kill_all_) {
+      pid = -1;
+    } else {
+      pid = ::fork();
+      if (pid == 0) {
+        // Child: only async-signal-safe calls until exec.
+        ::setpgid(0, 0);
+        ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a killed daemon takes its workers along
+        if (::getppid() != parent) ::_exit(126);
+        sigset_t none;
+        sigemptyset(&none);
+        ::sigprocmask(SIG_SETMASK, &none, nullptr);
+        ::signal(SIGPIPE, SIG_DFL);
+        ::dup2(pipefd[1], 1);
+        if (logfd >= 0) ::dup2(logfd, 2);
+        int devnull = ::open("/dev/null", O_RDONLY);
+        if (devnull >= 0) ::dup2(devnull, 0);
+        ::syscall(SYS_close_range, 3u, ~0u, 0u);
+        struct rlimit rl_mem = {mem, mem};
+        ::setrlimit(RLIMIT_AS, &rl_mem);
+        struct rlimit rl_cpu = {cpu, cpu + 5};
+        ::setrlimit(RLIMIT_CPU, &rl_cpu);
+        ::execv(argv[0], argv.data());
+        const char msg[] = "hocurved: cannot execute the worker program\n";
+        (void)!::write(2, msg, sizeof msg - 1);
+        ::_exit(127);
+      }
+      if (pid > 0) {
+        ::setpgid(pid, pid);
+        running_[id] = pid;
+      }
+    }
+  }
+  ::close(pipefd[1]);
+  if (logfd >= 0) ::close(logfd);
+  if (pid < 0) {
+    ::close(pipefd[0]);
+    if (kill_all_) {
+      store_.update(id, [&](Job& j) { j.status = "queued"; j.stage = "queued"; j.attempts -= 1; });
+      return;
+    }
+    finish("cancelled", make_problem(409, "cancelled", "job " + id + " was cancelled"));
+    return;
+  }
+
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.job_timeout);
+  std::string buffer;
+  bool eof = false, killed = false;
+  int status = 0;
+  auto handle_line = [&](const std::string& line) {
+    auto j = nlohmann::json::parse(line, nullptr, false);
+    if (!j.is_object() || !j.contains("fraction")) return;
+    std::string stage = j.value("stage", "");
+    double fraction = j["fraction"].is_number() ? j["fraction"].get<double>() : 0.0;
+    fraction = std::clamp(fraction, 0.0, 1.0);
+    store_.update(id, [&](Job& jj) {
+      jj.stage = stage.empty() ? jj.stage : stage.substr(0, 64);
+      jj.fraction = fraction;
+    }, /*persist=*/false);
+  };
+  for (;;) {
+    // Why killed: cancel request, shutdown, or timeout. The first reason wins.
+    if (!killed) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (cancel_requests_.count(id)) outcome.kind = ProcessOutcome::kCancelled, killed = true;
+      else if (kill_all_) outcome.kind = ProcessOutcome::kInterrupted, killed = true;
+      else if (std::chrono::steady_clock::now() > deadline) outcome.kind = ProcessOutcome::kTimeout, killed = true;
+      if (killed) ::kill(-pid, SIGKILL);
+    }
+    if (!eof) {
+      struct pollfd p = {pipefd[0], POLLIN, 0};
+      int r = ::poll(&p, 1, 100);
+      if (r > 0) {
+        char buf[4096];
+        ssize_t n = ::read(pipefd[0], buf, sizeof buf);
+        if (n <= 0) {
+          eof = true;
+        } else {
+          buffer.append(buf, (size_t)n);
+          size_t nl;
+          while ((nl = buffer.find('\n')) != std::string::npos) {
+            handle_line(buffer.substr(0, nl));
+            buffer.erase(0, nl + 1);
+          }
+          if (buffer.size() > 65536) buffer.clear();  // a runaway line is not progress
+        }
+      }
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    pid_t w = ::waitpid(pid, &status, WNOHANG);
+    if (w == pid) break;
+  }
+  ::close(pipefd[0]);
+  ::kill(-pid, SIGKILL);  // stray grandchildren of the worker, if any
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    running_[id] = 0;
+  }
+
+  if (!killed) {
+    if (WIFEXITED(status)) outcome = {ProcessOutcome::kExited, WEXITSTATUS(status), ""};
+    else if (WIFSIGNALED(status)) outcome = {ProcessOutcome::kSignaled, WTERMSIG(status), ""};
+  }
+  const std::string err_line = last_line(logfile);
+  const std::string because = err_line.empty() ? "" : ": " + err_line;
+  switch (outcome.kind) {
+    case ProcessOutcome::kCancelled:
+      finish("cancelled", make_problem(409, "cancelled", "job " + id + " was cancelled while running"));
+      return;
+    case ProcessOutcome::kInterrupted:
+      // Shutdown: the job runs again after the restart.
+      store_.update(id, [&](Job& j) {
+        j.status = "queued";
+        j.stage = "queued";
+        j.fraction = 0;
+        j.attempts -= 1;
+      });
+      log_info("job interrupted by shutdown; left queued", {{"job_id", id}});
+      return;
+    case ProcessOutcome::kTimeout:
+      finish("failed", make_problem(504, "timeout",
+                                    "job exceeded the time limit of " + std::to_string((int)config_.job_timeout) + " s"));
+      return;
+    case ProcessOutcome::kSignaled: {
+      std::string why = "worker process was killed by " + signal_name(outcome.code);
+      if (outcome.code == SIGKILL || outcome.code == SIGXCPU)
+        why += " (memory limit " + std::to_string((long long)config_.job_memory_mb) + " MiB or CPU limit?)";
+      finish("failed", make_problem(500, "worker-crashed", why + because));
+      return;
+    }
+    default:
+      break;
+  }
+  switch (outcome.code) {
+    case 0: {
+      bool ok = fs::exists(part, ec);
+      if (ok) {
+        fs::rename(part, result, ec);
+        ok = !ec;
+      }
+      if (ok) finish("succeeded", nullptr);
+      else finish("failed", make_problem(500, "internal", "worker exited 0 but wrote no result" + because));
+      return;
+    }
+    case 2:
+      finish("failed", make_problem(400, "invalid-options", "worker refused the options" + because));
+      return;
+    case 3:
+      finish("failed", make_problem(422, "invalid-mesh", err_line.empty() ? "mesh refused" : err_line));
+      return;
+    case 127:
+      finish("failed", make_problem(500, "internal", "cannot execute worker '" + worker_bin_ + "'"));
+      return;
+    default:
+      finish("failed", make_problem(500, "internal",
+                                    "worker failed with exit code " + std::to_string(outcome.code) + because));
+      return;
+  }
+}
+
+}  // namespace hocurve::server

@@ -1,0 +1,274 @@
+#include "server/job_store.hpp"
+
+#include "server/log.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <fcntl.h>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <unistd.h>
+
+namespace hocurve::server {
+namespace fs = std::filesystem;
+
+namespace {
+nlohmann::json time_or_null(double t) { return t > 0 ? nlohmann::json(rfc3339(t)) : nlohmann::json(nullptr); }
+
+void fsync_path(const std::string& path, int flags) {
+  int fd = ::open(path.c_str(), flags);
+  if (fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
+}
+}  // namespace
+
+nlohmann::json job_view(const Job& j) {
+  nlohmann::json v = {
+      {"id", j.id},
+      {"status", j.status},
+      {"done", j.terminal()},
+      {"progress", {{"stage", j.stage}, {"fraction", j.fraction}}},
+      {"created", time_or_null(j.created)},
+      {"started", time_or_null(j.started)},
+      {"finished", time_or_null(j.finished)},
+      {"expires", time_or_null(j.expires)},
+      {"options", j.options},
+      {"input", j.input},
+      {"stats", j.stats.is_null() ? nlohmann::json(nullptr) : j.stats},
+      {"error", j.error.is_null() ? nlohmann::json(nullptr) : j.error},
+      {"attempts", j.attempts},
+  };
+  nlohmann::json links = {{"self", "/v1/jobs/" + j.id}};
+  if (j.status == "succeeded") {
+    links["result"] = "/v1/jobs/" + j.id + "/result";
+    links["stats"] = "/v1/jobs/" + j.id + "/stats";
+    v["result"] = {{"href", links["result"]}, {"bytes", j.result_bytes}};
+  } else {
+    v["result"] = nullptr;
+  }
+  v["links"] = links;
+  return v;
+}
+
+nlohmann::json job_to_state(const Job& j) {
+  return {{"id", j.id},         {"status", j.status},     {"stage", j.stage},
+          {"fraction", j.fraction}, {"created", j.created}, {"started", j.started},
+          {"finished", j.finished}, {"expires", j.expires}, {"options", j.options},
+          {"input", j.input},   {"stats", j.stats},       {"error", j.error},
+          {"result_bytes", j.result_bytes}, {"idempotency_key", j.idempotency_key},
+          {"fingerprint", j.fingerprint}, {"attempts", j.attempts}, {"sync", j.sync}};
+}
+
+Job job_from_state(const nlohmann::json& s) {
+  Job j;
+  j.id = s.at("id").get<std::string>();
+  j.status = s.value("status", "queued");
+  j.stage = s.value("stage", "queued");
+  j.fraction = s.value("fraction", 0.0);
+  j.created = s.value("created", 0.0);
+  j.started = s.value("started", 0.0);
+  j.finished = s.value("finished", 0.0);
+  j.expires = s.value("expires", 0.0);
+  j.options = s.value("options", nlohmann::json::object());
+  j.input = s.value("input", nlohmann::json::object());
+  if (s.contains("stats")) j.stats = s["stats"];
+  if (s.contains("error")) j.error = s["error"];
+  j.result_bytes = s.value("result_bytes", std::uint64_t{0});
+  j.idempotency_key = s.value("idempotency_key", "");
+  j.fingerprint = s.value("fingerprint", "");
+  j.attempts = s.value("attempts", 0);
+  j.sync = s.value("sync", false);
+  return j;
+}
+
+void write_file_atomic(const std::string& path, const std::string& text) {
+  std::string tmp = path + ".tmp";
+  int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error("cannot write " + tmp);
+  size_t off = 0;
+  while (off < text.size()) {
+    ssize_t n = ::write(fd, text.data() + off, text.size() - off);
+    if (n <= 0) {
+      ::close(fd);
+      throw std::runtime_error("cannot write " + tmp);
+    }
+    off += (size_t)n;
+  }
+  ::fsync(fd);
+  ::close(fd);
+  if (::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename " + tmp);
+  fsync_path(fs::path(path).parent_path().string(), O_RDONLY | O_DIRECTORY);
+}
+
+JobStore::JobStore(std::string data_dir) : data_dir_(std::move(data_dir)) {
+  fs::create_directories(fs::path(data_dir_) / "jobs");
+  fs::create_directories(uploads_dir());
+}
+
+std::string JobStore::job_dir(const std::string& id) const { return (fs::path(data_dir_) / "jobs" / id).string(); }
+std::string JobStore::uploads_dir() const { return (fs::path(data_dir_) / "uploads").string(); }
+
+std::string JobStore::new_id() {
+  // 12 hex digits of milliseconds, 4 of a per-process counter, 8 random: sortable and unguessable enough.
+  using namespace std::chrono;
+  auto ms = duration_cast<milliseconds>(system_clock::now().time_since_epoch()).count();
+  static thread_local std::mt19937_64 rng{std::random_device{}()};
+  std::lock_guard<std::mutex> lock(mutex_);
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%012llx%04llx%08llx", (unsigned long long)ms,
+                (unsigned long long)(id_counter_++ & 0xffff), (unsigned long long)(rng() & 0xffffffffULL));
+  return buf;
+}
+
+std::vector<Job> JobStore::load() {
+  std::vector<Job> loaded;
+  std::error_code ec;
+  fs::remove_all(uploads_dir(), ec);
+  fs::create_directories(uploads_dir());
+  for (auto& entry : fs::directory_iterator(fs::path(data_dir_) / "jobs")) {
+    if (!entry.is_directory()) continue;
+    fs::path state = entry.path() / "state.json";
+    try {
+      std::ifstream in(state);
+      if (!in) throw std::runtime_error("no state.json");
+      Job j = job_from_state(nlohmann::json::parse(in));
+      if (j.id != entry.path().filename().string()) throw std::runtime_error("id mismatch");
+      loaded.push_back(j);
+    } catch (const std::exception& e) {
+      log_warn("removing incomplete job folder", {{"path", entry.path().string()}, {"why", e.what()}});
+      fs::remove_all(entry.path(), ec);
+    }
+  }
+  std::sort(loaded.begin(), loaded.end(), [](const Job& a, const Job& b) { return a.id < b.id; });
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (auto& j : loaded) {
+    jobs_[j.id] = j;
+    if (!j.idempotency_key.empty()) idempotency_[j.idempotency_key] = j.id;
+    for (auto& f : fs::directory_iterator(job_dir(j.id), ec))
+      if (f.is_regular_file()) disk_bytes_ += f.file_size();
+  }
+  return loaded;
+}
+
+void JobStore::persist(const Job& job) const {
+  write_file_atomic(job_dir(job.id) + "/state.json", job_to_state(job).dump(2) + "\n");
+}
+
+void JobStore::insert(const Job& job) {
+  persist(job);
+  std::lock_guard<std::mutex> lock(mutex_);
+  jobs_[job.id] = job;
+  if (!job.idempotency_key.empty()) idempotency_[job.idempotency_key] = job.id;
+  changed_.notify_all();
+}
+
+std::optional<Job> JobStore::get(const std::string& id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = jobs_.find(id);
+  if (it == jobs_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::optional<Job> JobStore::update(const std::string& id, const std::function<void(Job&)>& fn, bool persist_it) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  auto it = jobs_.find(id);
+  if (it == jobs_.end()) return std::nullopt;
+  fn(it->second);
+  Job copy = it->second;
+  // Persist under the lock so that two updates of one job reach the disk in order.
+  if (persist_it) persist(copy);
+  changed_.notify_all();
+  return copy;
+}
+
+bool JobStore::remove(const std::string& id) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = jobs_.find(id);
+    if (it == jobs_.end()) return false;
+    if (!it->second.idempotency_key.empty()) idempotency_.erase(it->second.idempotency_key);
+    jobs_.erase(it);
+    changed_.notify_all();
+  }
+  std::error_code ec;
+  std::uint64_t bytes = 0;
+  for (auto& f : fs::directory_iterator(job_dir(id), ec))
+    if (f.is_regular_file()) bytes += f.file_size();
+  fs::remove_all(job_dir(id), ec);
+  add_disk_bytes(-(std::int64_t)bytes);
+  return true;
+}
+
+std::vector<Job> JobStore::list(size_t limit, const std::string& after, const std::string& status, bool& more) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<Job> out;
+  more = false;
+  auto it = after.empty() ? jobs_.end() : jobs_.lower_bound(after);
+  while (it != jobs_.begin()) {
+    --it;
+    const Job& j = it->second;
+    if (j.sync || (!status.empty() && j.status != status)) continue;
+    if (out.size() == limit) {
+      more = true;
+      break;
+    }
+    out.push_back(j);
+  }
+  return out;
+}
+
+std::vector<Job> JobStore::all() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<Job> out;
+  for (auto& [_, j] : jobs_) out.push_back(j);
+  return out;
+}
+
+std::optional<Job> JobStore::find_idempotent(const std::string& key) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = idempotency_.find(key);
+  if (it == idempotency_.end()) return std::nullopt;
+  auto jt = jobs_.find(it->second);
+  if (jt == jobs_.end()) return std::nullopt;
+  return jt->second;
+}
+
+std::optional<Job> JobStore::wait_terminal(const std::string& id, double timeout_s) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  for (;;) {
+    auto it = jobs_.find(id);
+    if (it == jobs_.end()) return std::nullopt;
+    if (it->second.terminal()) return it->second;
+    if (changed_.wait_until(lock, deadline) == std::cv_status::timeout) {
+      auto jt = jobs_.find(id);
+      if (jt == jobs_.end()) return std::nullopt;
+      return jt->second;
+    }
+  }
+}
+
+std::map<std::string, long long> JobStore::counts() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::map<std::string, long long> c = {{"queued", 0}, {"running", 0}, {"succeeded", 0}, {"failed", 0}, {"cancelled", 0}};
+  for (auto& [_, j] : jobs_) c[j.status]++;
+  return c;
+}
+
+std::uint64_t JobStore::disk_bytes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return disk_bytes_;
+}
+
+void JobStore::add_disk_bytes(std::int64_t delta) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (delta < 0 && (std::uint64_t)(-delta) > disk_bytes_) disk_bytes_ = 0;
+  else disk_bytes_ += delta;
+}
+
+}  // namespace hocurve::server

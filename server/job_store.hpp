@@ -1,0 +1,92 @@
+// Durable job store: one folder per job under <data-dir>/jobs/<id>/ holding the input, state.json
+// (written atomically: write, fsync, rename), the result and the worker's stderr. The in-memory
+// index mirrors state.json and is rebuilt from disk at start-up.
+#pragma once
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace hocurve::server {
+
+/// One job. Times are seconds since the epoch (0 = not yet).
+struct Job {
+  std::string id;
+  std::string status = "queued";  ///< queued | running | succeeded | failed | cancelled
+  std::string stage = "queued";
+  double fraction = 0;
+  double created = 0, started = 0, finished = 0, expires = 0;
+  nlohmann::json options = nlohmann::json::object();
+  nlohmann::json input = nlohmann::json::object();  ///< {filename, format, bytes, counts?}
+  nlohmann::json stats;                             ///< the worker's --stats JSON once succeeded
+  nlohmann::json error;                             ///< problem object once failed/cancelled
+  std::uint64_t result_bytes = 0;
+  std::string idempotency_key, fingerprint;
+  int attempts = 0;
+  bool sync = false;  ///< created by POST /v1/curve (not listed)
+
+  bool terminal() const { return status == "succeeded" || status == "failed" || status == "cancelled"; }
+};
+
+/// The public JSON view of a job (what GET /v1/jobs/{id} answers).
+nlohmann::json job_view(const Job& job);
+
+/// The persisted JSON of a job, and back.
+nlohmann::json job_to_state(const Job& job);
+Job job_from_state(const nlohmann::json& state);
+
+/// Writes `text` to `path` atomically: temp file, fsync, rename, fsync of the directory.
+void write_file_atomic(const std::string& path, const std::string& text);
+
+class JobStore {
+ public:
+  explicit JobStore(std::string data_dir);
+
+  /// Loads every jobs/<id>/state.json; removes folders without one (interrupted uploads).
+  /// Returns the loaded jobs, oldest first.
+  std::vector<Job> load();
+
+  /// A new unique, time-ordered id (lexicographic order = creation order).
+  std::string new_id();
+  std::string job_dir(const std::string& id) const;
+  std::string uploads_dir() const;
+
+  /// Adds (and persists) a new job; the job's folder must exist.
+  void insert(const Job& job);
+  std::optional<Job> get(const std::string& id) const;
+  /// Applies `fn` to the job under the lock and persists it; returns the updated job.
+  std::optional<Job> update(const std::string& id, const std::function<void(Job&)>& fn, bool persist = true);
+  /// Removes the job and its folder.
+  bool remove(const std::string& id);
+  /// Newest first, ids strictly older than `after` when given; sync jobs are not listed.
+  std::vector<Job> list(size_t limit, const std::string& after, const std::string& status, bool& more) const;
+  std::vector<Job> all() const;
+  std::optional<Job> find_idempotent(const std::string& key) const;
+
+  /// Waits until the job is terminal (or gone, or `timeout_s` elapsed); returns its last state.
+  std::optional<Job> wait_terminal(const std::string& id, double timeout_s) const;
+
+  /// Counts by status.
+  std::map<std::string, long long> counts() const;
+
+  /// Bytes held in the data directory by all jobs (inputs + results), tracked incrementally.
+  std::uint64_t disk_bytes() const;
+  void add_disk_bytes(std::int64_t delta);
+
+ private:
+  void persist(const Job& job) const;
+  std::string data_dir_;
+  mutable std::mutex mutex_;
+  mutable std::condition_variable changed_;
+  std::map<std::string, Job> jobs_;
+  std::map<std::string, std::string> idempotency_;  // key -> id
+  std::uint64_t disk_bytes_ = 0;
+  std::uint64_t id_counter_ = 0;
+};
+
+}  // namespace hocurve::server

@@ -1,0 +1,105 @@
+// hocurved: the HTTP/JSON job service. Binds, recovers the job store, serves until SIGTERM/SIGINT,
+// then drains (not ready, running jobs get a grace period, the rest stay queued on disk) and stops.
+#include "server/app.hpp"
+#include "server/log.hpp"
+
+#include <httplib.h>
+
+#include <csignal>
+#include <filesystem>
+#include <iostream>
+#include <thread>
+#include <unistd.h>
+
+#ifndef HOCURVE_VERSION
+#define HOCURVE_VERSION "0.0.0"
+#endif
+
+using namespace hocurve::server;
+
+int main(int argc, char** argv) {
+  // Block the termination signals in every thread; one thread waits for them with sigwait.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+
+  Config config;
+  try {
+    if (!parse_config(argc, argv, config)) return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "hocurved: " << e.what() << "\n";
+    return 2;
+  }
+  const std::string worker = locate_worker(config.hocurve_bin, argv[0]);
+  std::error_code ec;
+  const std::string exe_dir = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path().string();
+
+  httplib::Server svr;
+  const int threads = config.http_threads;
+  svr.new_task_queue = [threads] { return new httplib::ThreadPool((size_t)threads); };
+  svr.set_keep_alive_max_count(5);
+  svr.set_keep_alive_timeout(2);
+  svr.set_read_timeout(30);
+  svr.set_write_timeout(30);
+  svr.set_payload_max_length((size_t)(std::max(config.max_upload_mb, config.max_sync_mb) * 1048576) + (1u << 20));
+
+  int port = config.port;
+  if (port == 0) {
+    port = svr.bind_to_any_port(config.host);
+    if (port <= 0) {
+      log_error("cannot bind", {{"host", config.host}, {"port", 0}});
+      return 1;
+    }
+  } else if (!svr.bind_to_port(config.host, port)) {
+    log_error("cannot bind", {{"host", config.host}, {"port", port}});
+    return 1;
+  }
+  log_info("listening", {{"host", config.host}, {"port", port}, {"version", HOCURVE_VERSION}, {"pid", ::getpid()}});
+
+  std::unique_ptr<App> app;
+  try {
+    app = std::make_unique<App>(config, worker);
+  } catch (const std::exception& e) {
+    log_error("cannot open the data directory", {{"data_dir", config.data_dir}, {"error", e.what()}});
+    return 1;
+  }
+  if (::access(worker.c_str(), X_OK) != 0)
+    log_warn("worker program not found or not executable; jobs will fail", {{"hocurve_bin", worker}});
+  app->openapi = load_openapi(exe_dir);
+
+  // Recovery: finished jobs stay listed; queued or interrupted ones run again, oldest first.
+  int requeued = 0, dropped = 0;
+  for (const Job& j : app->store.load()) {
+    if (j.terminal()) continue;
+    if (j.sync) {  // its client is gone
+      app->store.remove(j.id);
+      ++dropped;
+      continue;
+    }
+    app->store.update(j.id, [](Job& x) {
+      x.status = "queued";
+      x.stage = "queued";
+      x.fraction = 0;
+    });
+    app->runner.enqueue(j.id, /*force=*/true);
+    ++requeued;
+  }
+  log_info("store loaded", {{"data_dir", config.data_dir}, {"requeued", requeued}, {"dropped_sync", dropped},
+                            {"hocurve_bin", worker}, {"workers", config.workers}});
+  app->runner.start();
+  install_routes(svr, *app);
+
+  std::thread http([&svr] { svr.listen_after_bind(); });
+  int sig = 0;
+  sigwait(&signals, &sig);
+  log_info("draining", {{"signal", sig}, {"running", app->runner.running()}, {"queued", app->runner.queue_depth()}});
+  app->draining = true;
+  app->runner.shutdown(config.shutdown_grace);
+  svr.stop();
+  http.join();
+  log_info("stopped", nlohmann::json::object());
+  return 0;
+}
