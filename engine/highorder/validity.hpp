@@ -4,7 +4,10 @@
 #pragma once
 #include "engine/highorder/high_order_mesh.hpp"
 
+#include "engine/highorder/bezier.hpp"
+
 #include <Eigen/Core>
+#include <array>
 #include <vector>
 
 namespace hocurve {
@@ -21,10 +24,50 @@ struct ElementValidity {
   double min_scaled_jacobian = 0;  ///< lower bound (Bezier) of det J / det J_straight
   double max_scaled_jacobian = 0;  ///< upper bound
   bool valid = false;
+  bool degenerate = false;         ///< straight triangle of (near) zero area: J_straight ~ 0
+  int subdivisions = 0;            ///< deepest subdivision level visited (0: decided on the whole element)
 };
 
+/// Per-order matrices of the Jacobian bound, built once per order and reused for every element
+/// of that order (owned by the caller: no global cache). p = 1..10; d = 2(p-1).
+struct JacobianBasis {
+  explicit JacobianBasis(int p);
+  int p = 1;                                ///< element order
+  int d = 0;                                ///< degree of J, 2(p-1)
+  int num_nodes = 3;                        ///< (p+1)(p+2)/2
+  int num_coefficients = 1;                 ///< (d+1)(d+2)/2
+  Eigen::MatrixXd to_bernstein;             ///< #nodes x #nodes: Gmsh-ordered nodes -> control points
+  BernsteinProduct product;                 ///< degree (p-1) x (p-1) product of the derivative nets
+  Eigen::MatrixXd lattice_values;           ///< T_d: J at the degree-d lattice = T_d b
+  Eigen::MatrixXd lattice_to_bernstein;     ///< T_d^{-1} (route A)
+  Eigen::MatrixXd grad_u, grad_v;           ///< Lagrange basis gradients at the degree-d lattice (route A)
+  std::array<Eigen::MatrixXd, 4> children;  ///< subdivision matrices S_c (bernstein_subdivision_matrix)
+};
+
+/// Bernstein coefficients of the scaled Jacobian J / J_straight (degree 2(p-1), Bernstein
+/// numbering of bezier.hpp), J = (x_u x x_v) . n with n the unit normal of the straight triangle
+/// through the corners. Route B: exact products of the control nets' derivative nets.
+/// Returns an empty vector when the straight triangle is degenerate.
+Eigen::VectorXd jacobian_bezier(const JacobianBasis& basis, const Eigen::MatrixXd& nodes);
+
+/// Same coefficients by route A: J sampled at the degree-d lattice (Lagrange gradients), then
+/// converted with T_d^{-1}. Agrees with jacobian_bezier to rounding; used to cross-check.
+Eigen::VectorXd jacobian_bezier_sampled(const JacobianBasis& basis, const Eigen::MatrixXd& nodes);
+
+/// Lower bound of a degree-d Bernstein polynomial (coefficients b) after `depth` uniform
+/// subdivisions: the minimum coefficient over all 4^depth children. Non-decreasing in depth.
+double bezier_lower_bound(const JacobianBasis& basis, const Eigen::VectorXd& b, int depth);
+
 /// Checks one element given its nodes in Gmsh order (#nodes x 3) and its order p.
+/// Builds a JacobianBasis each call: in loops use the overload below with a basis built once.
 ElementValidity check_element(const Eigen::MatrixXd& nodes, int p, const ValidityOptions& opt = {});
+
+/// Checks one element with a prebuilt basis for its order (basis.p). Decision: J sampled at the
+/// degree-d lattice <= threshold anywhere -> invalid (certain); min Bernstein coefficient >
+/// threshold -> valid (certain); otherwise split into 4 children at the edge midpoints, up to
+/// opt.max_subdivisions levels; still undecided -> invalid.
+ElementValidity check_element(const JacobianBasis& basis, const Eigen::MatrixXd& nodes,
+                              const ValidityOptions& opt = {});
 
 struct ValidityReport {
   long long checked = 0;
@@ -38,6 +81,9 @@ struct ValidityReport {
 
 /// Checks every element of hm (TBB-parallel, deterministic).
 ValidityReport check_validity(const HighOrderMesh& hm, const ValidityOptions& opt = {});
+
+/// Per-element results for every face of hm (TBB-parallel, deterministic).
+std::vector<ElementValidity> check_elements(const HighOrderMesh& hm, const ValidityOptions& opt = {});
 
 /// Checks and repairs: invalid elements have their high-order displacement (edge and face
 /// nodes relative to the straight positions) shrunk step by step; shared edge nodes move for
