@@ -138,6 +138,61 @@ double warp_factor(int p, const std::vector<double>& gll, double r) {
   return w;
 }
 
+
+// Warburton's blend parameters for the tetrahedron's interior, p = 1..15 (same source).
+constexpr double kAlphaOpt3D[16] = {0,      0,      0,      0,      0.1002, 1.1332, 1.5608, 1.3413,
+                                    1.2577, 1.1603, 1.10153, 0.6080, 0.4523, 0.8856, 0.8717, 0.9655};
+
+struct LobattoTables {
+  int p = 0;
+  std::vector<double> gll;  // GLL points on [-1, 1]
+  std::vector<double> line; // the same on [0, 1], exactly symmetric
+  double alpha = 0;         // 2D blend parameter
+};
+
+LobattoTables lobatto_tables(int p) {
+  LobattoTables t;
+  t.p = p;
+  t.gll = gll_points(p);
+  t.line.resize(p + 1);
+  for (int k = 0; k <= p; ++k) t.line[k] = 0.5 * (1 + t.gll[k]);
+  for (int k = 0; 2 * k < p; ++k) t.line[p - k] = 1 - t.line[k];
+  t.alpha = kAlphaOpt[p];
+  return t;
+}
+
+// Warp & blend shift of a triangle point with (possibly unnormalised) barycentrics lam, as a
+// change of barycentrics: each edge (a, b) opposite c moves the point along b - a by half
+// its blended 1D warp. Affine-covariant, so it is computed without any physical frame.
+void triangle_warp_shift(const LobattoTables& t, double alpha, const double lam[3], double shift[3]) {
+  shift[0] = shift[1] = shift[2] = 0;
+  for (int c = 0; c < 3; ++c) {
+    const int a = (c + 1) % 3, b = (c + 2) % 3;
+    const double w = 4 * lam[a] * lam[b] * warp_factor(t.p, t.gll, lam[b] - lam[a]) *
+                     (1 + (alpha * lam[c]) * (alpha * lam[c]));
+    shift[b] += 0.5 * w;
+    shift[a] -= 0.5 * w;
+  }
+}
+
+// Barycentric coordinates of the Lobatto triangle node with lattice barycentric indices li
+// (sum p). Edge nodes are exactly the 1D points, so neighbouring elements agree to the bit
+// (up to the a + t (b - a) rounding of the caller).
+void lobatto_triangle_barycentric(const LobattoTables& t, const int li[3], double lam[3]) {
+  for (int c = 0; c < 3; ++c)
+    if (li[c] == 0) {
+      const int a = (c + 1) % 3, b = (c + 2) % 3;
+      lam[c] = 0;
+      lam[b] = t.line[li[b]];
+      lam[a] = 1 - lam[b];
+      return;
+    }
+  double l[3], shift[3];
+  for (int c = 0; c < 3; ++c) l[c] = double(li[c]) / t.p;
+  triangle_warp_shift(t, t.alpha, l, shift);
+  for (int c = 0; c < 3; ++c) lam[c] = l[c] + shift[c];
+}
+
 }  // namespace
 
 const char* to_string(NodeDistribution d) {
@@ -202,37 +257,12 @@ Eigen::MatrixXd triangle_reference_nodes(int p, NodeDistribution d) {
     for (Eigen::Index k = 0; k < L.rows(); ++k) uv.row(k) << double(L(k, 0)) / p, double(L(k, 1)) / p;
     return uv;
   }
-  const std::vector<double> gll = gll_points(p);
-  const Eigen::VectorXd line = line_reference_nodes(p, d);
-  const double alpha = kAlphaOpt[p];
-  const double A[3][2] = {{0, 0}, {1, 0}, {0, 1}};
+  const LobattoTables tab = lobatto_tables(p);
   for (Eigen::Index k = 0; k < L.rows(); ++k) {
     const int li[3] = {p - L(k, 0) - L(k, 1), L(k, 0), L(k, 1)};
-    const double lam[3] = {double(li[0]) / p, double(li[1]) / p, double(li[2]) / p};
-    double x = lam[1], y = lam[2];
-    int zero = -1;
-    for (int c = 0; c < 3; ++c)
-      if (li[c] == 0) zero = c;
-    if (zero >= 0) {
-      // On an edge: exactly the 1D Lobatto point, so that edges shared by neighbouring
-      // triangles (and make_straight_high_order's edge nodes) agree to the last bit.
-      const int a = (zero + 1) % 3, b = (zero + 2) % 3;  // edge a->b, lattice index li[b]
-      const double t = line[li[b]];
-      x = A[a][0] + t * (A[b][0] - A[a][0]);
-      y = A[a][1] + t * (A[b][1] - A[a][1]);
-      uv.row(k) << x, y;
-      continue;
-    }
-    // Warp & blend: for each edge (a, b) opposite c, move along the edge direction by the
-    // blended 1D warp. Written in (u, v) directly; the construction is affine-covariant.
-    for (int c = 0; c < 3; ++c) {
-      const int a = (c + 1) % 3, b = (c + 2) % 3;
-      const double r = lam[b] - lam[a];
-      const double w = 4 * lam[a] * lam[b] * warp_factor(p, gll, r) * (1 + (alpha * lam[c]) * (alpha * lam[c]));
-      x += 0.5 * w * (A[b][0] - A[a][0]);
-      y += 0.5 * w * (A[b][1] - A[a][1]);
-    }
-    uv.row(k) << x, y;
+    double lam[3];
+    lobatto_triangle_barycentric(tab, li, lam);
+    uv.row(k) << lam[1], lam[2];
   }
   return uv;
 }
@@ -240,10 +270,49 @@ Eigen::MatrixXd triangle_reference_nodes(int p, NodeDistribution d) {
 Eigen::MatrixXd tet_reference_nodes(int p, NodeDistribution d) {
   const Eigen::MatrixXi L = tet_lattice(p);
   Eigen::MatrixXd uvw(L.rows(), 3);
-  if (d == NodeDistribution::Lobatto && p > 2)
-    throw UsageError("tet_reference_nodes: the Lobatto distribution is implemented for triangles only");
-  for (Eigen::Index k = 0; k < L.rows(); ++k)
-    uvw.row(k) << double(L(k, 0)) / p, double(L(k, 1)) / p, double(L(k, 2)) / p;
+  if (d == NodeDistribution::Equispaced || p <= 2) {
+    for (Eigen::Index k = 0; k < L.rows(); ++k)
+      uvw.row(k) << double(L(k, 0)) / p, double(L(k, 1)) / p, double(L(k, 2)) / p;
+    return uvw;
+  }
+  const LobattoTables tab = lobatto_tables(p);
+  const double alpha3 = kAlphaOpt3D[p];
+  for (Eigen::Index k = 0; k < L.rows(); ++k) {
+    const int li[4] = {p - L(k, 0) - L(k, 1) - L(k, 2), L(k, 0), L(k, 1), L(k, 2)};
+    double lam[4] = {0, 0, 0, 0};
+    int zero = -1;
+    for (int c = 0; c < 4; ++c)
+      if (li[c] == 0) zero = c;
+    if (zero >= 0) {
+      // On a face: exactly the Lobatto triangle's node, so tets and surface triangles conform.
+      int face[3], n = 0;
+      for (int c = 0; c < 4; ++c)
+        if (c != zero) face[n++] = c;
+      const int fl[3] = {li[face[0]], li[face[1]], li[face[2]]};
+      double fb[3];
+      lobatto_triangle_barycentric(tab, fl, fb);
+      for (int c = 0; c < 3; ++c) lam[face[c]] = fb[c];
+    } else {
+      // Interior: equispaced point plus every face's 2D warp, blended into the volume
+      // (Warburton 2006, with the face's unnormalised barycentrics).
+      double L4[4];
+      for (int c = 0; c < 4; ++c) L4[c] = double(li[c]) / p;
+      for (int c = 0; c < 4; ++c) lam[c] = L4[c];
+      for (int a = 0; a < 4; ++a) {
+        int face[3], n = 0;
+        for (int c = 0; c < 4; ++c)
+          if (c != a) face[n++] = c;
+        const double fb[3] = {L4[face[0]], L4[face[1]], L4[face[2]]};
+        double shift[3];
+        triangle_warp_shift(tab, alpha3, fb, shift);
+        const double La = L4[a], Lb = fb[0], Lc = fb[1], Ld = fb[2];
+        const double blend = (1 + (alpha3 * La) * (alpha3 * La)) * Lb * Lc * Ld /
+                             ((Lb + 0.5 * La) * (Lc + 0.5 * La) * (Ld + 0.5 * La));
+        for (int c = 0; c < 3; ++c) lam[face[c]] += blend * shift[c];
+      }
+    }
+    uvw.row(k) << lam[1], lam[2], lam[3];
+  }
   return uvw;
 }
 

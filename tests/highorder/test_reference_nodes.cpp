@@ -5,8 +5,10 @@
 
 #include <doctest/doctest.h>
 #include <gmsh.h>
+#include <Eigen/LU>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -169,5 +171,123 @@ TEST_CASE("Lobatto triangle nodes") {
         dmin = std::min(dmin, std::hypot(X(i, 0) - X(j, 0), X(i, 1) - X(j, 1)));
     CHECK(dmin > 0.2 / (p * p));
   }
-  CHECK((tet_reference_nodes(2, NodeDistribution::Lobatto) - tet_reference_nodes(2)).norm() == 0.0);
+}
+
+namespace {
+
+// Lebesgue constant of a node set (monomial Vandermonde, independent of our Lagrange code),
+// sampled on a fine lattice of the reference simplex (dim 2 or 3).
+double lebesgue_constant(const Eigen::MatrixXd& X, int p) {
+  const int dim = static_cast<int>(X.cols());
+  std::vector<std::array<int, 3>> mono;
+  for (int a = 0; a <= p; ++a)
+    for (int b = 0; a + b <= p; ++b)
+      for (int c = 0; a + b + c <= p && (dim == 3 || c == 0); ++c) mono.push_back({a, b, c});
+  REQUIRE(mono.size() == static_cast<size_t>(X.rows()));
+  auto row = [&](const double* x) {
+    Eigen::RowVectorXd r(mono.size());
+    for (size_t m = 0; m < mono.size(); ++m)
+      r[m] = std::pow(x[0], mono[m][0]) * std::pow(x[1], mono[m][1]) * (dim == 3 ? std::pow(x[2], mono[m][2]) : 1.0);
+    return r;
+  };
+  Eigen::MatrixXd Vd(X.rows(), X.rows());
+  for (int i = 0; i < X.rows(); ++i) {
+    const double x[3] = {X(i, 0), X(i, 1), dim == 3 ? X(i, 2) : 0.0};
+    Vd.row(i) = row(x);
+  }
+  const Eigen::MatrixXd C = Vd.inverse();  // columns: Lagrange basis coefficients
+  const int n = dim == 3 ? 24 : 60;
+  double best = 0;
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; i + j <= n; ++j)
+      for (int k = 0; i + j + k <= n && (dim == 3 || k == 0); ++k) {
+        const double x[3] = {double(i) / n, double(j) / n, double(k) / n};
+        best = std::max(best, (row(x) * C).cwiseAbs().sum());
+      }
+  return best;
+}
+
+}  // namespace
+
+TEST_CASE("Lobatto nodes have smaller Lebesgue constants than equispaced ones") {
+  for (int p : {4, 6, 8}) {
+    CAPTURE(p);
+    const double eq = lebesgue_constant(triangle_reference_nodes(p), p);
+    const double lo = lebesgue_constant(triangle_reference_nodes(p, NodeDistribution::Lobatto), p);
+    INFO("triangle p=" << p << " Lebesgue equispaced " << eq << " lobatto " << lo);
+    CHECK(lo < eq);
+    if (p == 8) CHECK(lo < 0.5 * eq);
+  }
+  for (int p : {4, 6}) {
+    CAPTURE(p);
+    const double eq = lebesgue_constant(tet_reference_nodes(p), p);
+    const double lo = lebesgue_constant(tet_reference_nodes(p, NodeDistribution::Lobatto), p);
+    INFO("tet p=" << p << " Lebesgue equispaced " << eq << " lobatto " << lo);
+    CHECK(lo < eq);
+  }
+}
+
+TEST_CASE("Lobatto tet nodes") {
+  for (int p = 1; p <= 10; ++p) {
+    CAPTURE(p);
+    const Eigen::MatrixXd X = tet_reference_nodes(p, NodeDistribution::Lobatto);
+    const Eigen::MatrixXi L = tet_lattice(p);
+    REQUIRE(X.rows() == L.rows());
+    if (p <= 2) CHECK((X - tet_reference_nodes(p)).cwiseAbs().maxCoeff() == 0.0);
+    // Face nodes are the Lobatto triangle's nodes: compare node sets per face.
+    const Eigen::MatrixXd T = triangle_reference_nodes(p, NodeDistribution::Lobatto);
+    const double V[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    const int faces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};  // face opposite vertex a
+    for (int a = 0; a < 4; ++a) {
+      double worst = 0;
+      int on_face = 0;
+      for (int k = 0; k < X.rows(); ++k) {
+        const double lam[4] = {1 - X(k, 0) - X(k, 1) - X(k, 2), X(k, 0), X(k, 1), X(k, 2)};
+        const int li[4] = {p - L(k, 0) - L(k, 1) - L(k, 2), L(k, 0), L(k, 1), L(k, 2)};
+        if (li[a] != 0) continue;
+        ++on_face;
+        CHECK(std::abs(lam[a]) < 1e-15);
+        double best = 1e300;
+        for (int m = 0; m < T.rows(); ++m) {
+          const double w[3] = {1 - T(m, 0) - T(m, 1), T(m, 0), T(m, 1)};
+          double dist = 0;
+          for (int d = 0; d < 3; ++d) {
+            double y = 0;
+            for (int c = 0; c < 3; ++c) y += w[c] * V[faces[a][c]][d];
+            dist = std::max(dist, std::abs(y - X(k, d)));
+          }
+          best = std::min(best, dist);
+        }
+        worst = std::max(worst, best);
+      }
+      CHECK(on_face == triangle_node_count(p));
+      CHECK(worst < 1e-15);
+    }
+    // Interior nodes strictly inside; the set is invariant under all 24 vertex permutations.
+    for (int k = 0; k < X.rows(); ++k) {
+      const int li[4] = {p - L(k, 0) - L(k, 1) - L(k, 2), L(k, 0), L(k, 1), L(k, 2)};
+      if (li[0] && li[1] && li[2] && li[3]) {
+        CHECK(X.row(k).minCoeff() > 1e-3);
+        CHECK(1 - X.row(k).sum() > 1e-3);
+      }
+    }
+    int perm[4] = {0, 1, 2, 3};
+    double worst = 0;
+    do {
+      for (int k = 0; k < X.rows(); ++k) {
+        const double lam[4] = {1 - X(k, 0) - X(k, 1) - X(k, 2), X(k, 0), X(k, 1), X(k, 2)};
+        double mu[4];
+        for (int i = 0; i < 4; ++i) mu[perm[i]] = lam[i];
+        double best = 1e300;
+        for (int m = 0; m < X.rows(); ++m)
+          best = std::min(best, (X.row(m) - Eigen::RowVector3d(mu[1], mu[2], mu[3])).cwiseAbs().maxCoeff());
+        worst = std::max(worst, best);
+      }
+    } while (std::next_permutation(perm, perm + 4));
+    CHECK(worst < 1e-14);
+    double dmin = 1e300;
+    for (int i = 0; i < X.rows(); ++i)
+      for (int j = i + 1; j < X.rows(); ++j) dmin = std::min(dmin, (X.row(i) - X.row(j)).norm());
+    CHECK(dmin > 0.2 / (p * p));
+  }
 }
