@@ -28,9 +28,12 @@ Eigen::MatrixXi tet_lattice(int p);
 /// Lobatto: Gauss-Lobatto-Legendre points on the edges, warp & blend inside.
 Eigen::MatrixXd triangle_reference_nodes(int p, NodeDistribution d = NodeDistribution::Equispaced);
 /// Reference (u, v, w) of the order-p tet's nodes, Gmsh order, #nodes x 3.
+/// Lobatto: every face holds exactly the Lobatto triangle's nodes (so tets conform to Lobatto
+/// surface triangles); interior nodes get Warburton's blended face warps.
 Eigen::MatrixXd tet_reference_nodes(int p, NodeDistribution d = NodeDistribution::Equispaced);
 
-/// The p+1 points of a 1D distribution on [0, 1], ascending (ends included).
+/// The p+1 points of a 1D distribution on [0, 1], ascending (ends included). Lobatto: the
+/// Gauss-Lobatto-Legendre points (Newton on P'_p), exactly symmetric: t[p-k] == 1 - t[k].
 Eigen::VectorXd line_reference_nodes(int p, NodeDistribution d = NodeDistribution::Equispaced);
 
 }  // namespace hocurve
