@@ -12,7 +12,7 @@
 //   with its physical tags and bounding box, no boundary) are written when the mesh has
 //   physical groups or several entities. In 2.2 an element carries 2 tags (physical,
 //   entity); an entity in k > 1 groups gets its elements written k times, once per group, as
-//   Gmsh itself does.
+//   Gmsh itself does (Gmsh reads the copies back as separate elements: prefer 4.1 then).
 // - $HocurveInfo: one ASCII line "nodes <equispaced|lobatto> order <p> generator hocurve"
 //   right after $EndMeshFormat (also in binary files, where it stays text). Readers skip
 //   sections they do not know: checked with Gmsh 4.8.4 (C++ API, open) and meshio 5.0 for
