@@ -381,6 +381,10 @@ ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt) {
   std::vector<double> alpha_e(ne, 1.0), alpha_f(nf, 1.0);
   std::vector<int> steps(nf, 0);
   std::vector<char> edge_mark(ne, 0), face_mark(nf, 0);
+  // alpha = 0 is exactly straight, even when the curved node is not finite.
+  auto blend = [](const Eigen::RowVector3d& straight, const Eigen::RowVector3d& curved, double alpha) {
+    return alpha == 0 ? straight : Eigen::RowVector3d(straight + alpha * (curved - straight));
+  };
   auto straight_face = [&](int f) {
     if (alpha_f[f] != 0) return false;
     for (int j = 0; j < 3; ++j)
@@ -407,7 +411,7 @@ ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt) {
       }
       for (int k = 0; k < npf; ++k) {
         const Eigen::Index r = static_cast<Eigen::Index>(f) * npf + k;
-        hm.face_nodes.row(r) = face_straight.row(r) + alpha_f[f] * (face_curved.row(r) - face_straight.row(r));
+        hm.face_nodes.row(r) = blend(face_straight.row(r), face_curved.row(r), alpha_f[f]);
       }
     }
     std::sort(touched_edges.begin(), touched_edges.end());
@@ -417,7 +421,7 @@ ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt) {
       edge_mark[e] = 0;
       for (int k = 0; k < npe; ++k) {
         const Eigen::Index r = static_cast<Eigen::Index>(e) * npe + k;
-        hm.edge_nodes.row(r) = edge_straight.row(r) + alpha_e[e] * (edge_curved.row(r) - edge_straight.row(r));
+        hm.edge_nodes.row(r) = blend(edge_straight.row(r), edge_curved.row(r), alpha_e[e]);
       }
       for (int f : edge_faces[e])
         if (!face_mark[f]) {

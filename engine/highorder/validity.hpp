@@ -73,9 +73,12 @@ struct ValidityReport {
   long long checked = 0;
   long long invalid_before = 0;   ///< elements invalid before repair
   long long repaired = 0;         ///< elements (or neighbours) whose nodes were pulled back
-  long long invalid_after = 0;    ///< still invalid after repair (must be 0 unless the input is degenerate)
+  /// Still invalid after repair (check_validity: = invalid_before). 0 unless the input is degenerate
+  /// or straight elements themselves miss min_scaled_jacobian (e.g. Lobatto nodes read as equispaced).
+  long long invalid_after = 0;
   long long degenerate_input = 0; ///< straight triangles with (near) zero area: cannot be valid
-  double min_scaled_jacobian = 0; ///< over all elements after repair
+  /// Smallest lower bound of J / J_straight over the non-degenerate elements after repair (0 if none).
+  double min_scaled_jacobian = 0;
   std::vector<int> invalid_faces; ///< faces still invalid
 };
 
