@@ -1,0 +1,158 @@
+#include "engine/curving/curve_fit.hpp"
+
+#include <Eigen/Geometry>
+#include <Eigen/QR>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace hocurve {
+
+namespace {
+
+/// The feature edges at v (ascending edge index).
+std::vector<int> feature_edges_at(const Topology& T, const Features& feat, int v) {
+  std::vector<int> out;
+  auto [b, e] = T.edges_of(v);
+  for (const int* p = b; p != e; ++p)
+    if (feat.edge_feature[*p]) out.push_back(*p);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+/// v continues the curve (a non-corner vertex with exactly two feature edges).
+bool through(const Topology& T, const Features& feat, int v) {
+  return !feat.vertex_corner[v] && feature_edges_at(T, feat, v).size() == 2;
+}
+
+/// Walks from v across e and onwards through non-corner vertices, up to count vertices.
+void walk(const Topology& T, const Features& feat, int v, int e, int count, std::vector<int>& out) {
+  int prev = v, edge = e;
+  for (int i = 0; i < count; ++i) {
+    const int u = T.other(edge, prev);
+    if (u == v) break;  // closed loop
+    out.push_back(u);
+    if (!through(T, feat, u)) break;
+    auto fe = feature_edges_at(T, feat, u);
+    edge = fe[0] == edge ? fe[1] : fe[0];
+    prev = u;
+  }
+}
+
+}  // namespace
+
+Eigen::Vector3d CurveFit::project(const Eigen::Vector3d& x) const {
+  const double s = (x - o).dot(t);
+  double y = 0, z = 0, pw = 1;
+  for (int j = 0; j < degree; ++j) {
+    pw *= s / h;
+    y += cy[j] * pw;
+    z += cz[j] * pw;
+  }
+  return o + s * t + h * (y * n1 + z * n2);
+}
+
+CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat, int v, int e,
+                      int p, const FitOptions& opt) {
+  CurveFit C;
+  C.o = mesh.V.row(v).transpose();
+  const int per_side = p + 1;
+  std::vector<int> fwd, bwd;
+  walk(T, feat, v, e, per_side, fwd);
+  if (through(T, feat, v)) {
+    auto fe = feature_edges_at(T, feat, v);
+    walk(T, feat, v, fe[0] == e ? fe[1] : fe[0], per_side, bwd);
+  }
+  // Tangent from the two neighbours (or the one, at corners and curve ends).
+  Eigen::Vector3d t = (mesh.V.row(fwd[0]).transpose() - C.o).normalized();
+  if (!bwd.empty()) t = (t - (mesh.V.row(bwd[0]).transpose() - C.o).normalized()).normalized();
+  std::vector<int> pts(fwd);
+  pts.insert(pts.end(), bwd.begin(), bwd.end());
+  const int k = static_cast<int>(pts.size());
+  C.points = k;
+  C.h = (mesh.V.row(fwd[0]).transpose() - C.o).norm();
+  if (!bwd.empty()) C.h = 0.5 * (C.h + (mesh.V.row(bwd[0]).transpose() - C.o).norm());
+  if (!(C.h > 0)) C.h = 1.0;
+  std::vector<double> dist(k);
+  for (int i = 0; i < k; ++i) dist[i] = (mesh.V.row(pts[i]).transpose() - C.o).norm();
+  std::vector<double> sd(dist);
+  std::sort(sd.begin(), sd.end());
+  const int need = std::max(1, std::min(k, static_cast<int>(std::ceil(opt.points_per_coef * p))));
+  const double sigma = std::max(opt.sigma_factor * C.h, 0.5 * sd[need - 1]);
+
+  auto solve = [&](const Eigen::Vector3d& tan, CurveFit& out) {
+    out.t = tan;
+    Eigen::Vector3d a = std::abs(tan.x()) <= std::abs(tan.y()) && std::abs(tan.x()) <= std::abs(tan.z())
+                            ? Eigen::Vector3d::UnitX()
+                            : (std::abs(tan.y()) <= std::abs(tan.z()) ? Eigen::Vector3d::UnitY()
+                                                                       : Eigen::Vector3d::UnitZ());
+    out.n1 = (a - a.dot(tan) * tan).normalized();
+    out.n2 = tan.cross(out.n1);
+    for (int deg = std::min(p, k); deg >= 1; --deg) {
+      Eigen::MatrixXd A(k, deg);
+      Eigen::MatrixXd B(k, 2);
+      for (int i = 0; i < k; ++i) {
+        const Eigen::Vector3d d = mesh.V.row(pts[i]).transpose() - out.o;
+        const double w = std::exp(-dist[i] * dist[i] / (2 * sigma * sigma));
+        const double s = d.dot(tan) / out.h;
+        double pw = 1;
+        for (int j = 0; j < deg; ++j) A(i, j) = w * (pw *= s);
+        B(i, 0) = w * d.dot(out.n1) / out.h;
+        B(i, 1) = w * d.dot(out.n2) / out.h;
+      }
+      Eigen::VectorXd scale(deg);
+      for (int j = 0; j < deg; ++j) scale[j] = 1.0 / std::max(A.col(j).norm(), 1e-300), A.col(j) *= scale[j];
+      Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
+      qr.setThreshold(opt.rank_tol);
+      if (qr.rank() < deg) continue;
+      Eigen::MatrixXd X = qr.solve(B);
+      if (!X.allFinite()) continue;
+      out.degree = deg;
+      out.cy = X.col(0).cwiseProduct(scale);
+      out.cz = X.col(1).cwiseProduct(scale);
+      return;
+    }
+    out.degree = 0;
+  };
+  solve(t, C);
+  // Refine the tangent from the first fit's slope at s = 0.
+  if (C.degree >= 1) {
+    Eigen::Vector3d t1 = (C.t + C.cy[0] * C.n1 + C.cz[0] * C.n2).normalized();
+    if (t1.dot(t) > 0.5) solve(t1, C);
+  }
+  return C;
+}
+
+CurveFitResult fit_feature_curves(const Mesh& mesh, const Topology& T, const Features& feat,
+                                  int p, const FitOptions& opt) {
+  const auto t0 = std::chrono::steady_clock::now();
+  CurveFitResult R;
+  const int ne = T.num_edges();
+  R.fits.resize(2 * static_cast<size_t>(ne));
+  tbb::parallel_for(tbb::blocked_range<int>(0, ne), [&](const tbb::blocked_range<int>& r) {
+    for (int e = r.begin(); e < r.end(); ++e) {
+      if (feat.edge_feature.empty() || !feat.edge_feature[e]) continue;
+      for (int s = 0; s < 2; ++s) R.fits[2 * e + s] = fit_curve_at(mesh, T, feat, T.E(e, s), e, p, opt);
+    }
+  });
+  for (int e = 0; e < ne; ++e)
+    if (!feat.edge_feature.empty() && feat.edge_feature[e])
+      for (int s = 0; s < 2; ++s) {
+        ++R.fitted;
+        if (R.fits[2 * e + s].degree < p) ++R.downgraded;
+      }
+  R.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return R;
+}
+
+Eigen::Vector3d curve_edge_point(const Mesh& mesh, const Topology& T, const CurveFitResult& C,
+                                 int e, double t) {
+  const Eigen::Vector3d a = mesh.V.row(T.E(e, 0)).transpose(), b = mesh.V.row(T.E(e, 1)).transpose();
+  const Eigen::Vector3d x = (1 - t) * a + t * b;
+  return (1 - t) * C.fits[2 * e].project(x) + t * C.fits[2 * e + 1].project(x);
+}
+
+}  // namespace hocurve

@@ -1,0 +1,48 @@
+// 1D fits along feature curves: edges on a sharp rim or a boundary curve along the curve
+// (not along either adjacent surface), and corners stay put.
+#pragma once
+#include "engine/core/mesh.hpp"
+#include "engine/core/topology.hpp"
+#include "engine/curving/features.hpp"
+#include "engine/curving/local_fit.hpp"
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace hocurve {
+
+/// A curve through o: x(s) = o + s t + y(s) n1 + z(s) n2, y and z interpolatory polynomials
+/// (no constant term) in s/h with coefficients cy, cz giving offsets / h.
+struct CurveFit {
+  Eigen::Vector3d o = Eigen::Vector3d::Zero(), t = Eigen::Vector3d::UnitX(),
+                  n1 = Eigen::Vector3d::UnitY(), n2 = Eigen::Vector3d::UnitZ();
+  double h = 1.0;
+  int degree = 0;
+  Eigen::VectorXd cy, cz;
+  int points = 0;
+  /// The fitted curve point whose parameter is x's projection on t.
+  Eigen::Vector3d project(const Eigen::Vector3d& x) const;
+};
+
+struct CurveFitResult {
+  /// For feature edge e: fits[2e] is the fit at E(e,0), fits[2e+1] at E(e,1), each along the
+  /// curve through e (one-sided at corners). Non-feature edges have degree-0 placeholders.
+  std::vector<CurveFit> fits;
+  long long fitted = 0, downgraded = 0;
+  double seconds = 0;
+};
+
+/// Fits a degree-p curve at vertex v along the feature curve through edge e: the chain of
+/// feature vertices on both sides of v (only beyond e when v is a corner), stopping at corners.
+CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat, int v, int e,
+                      int p, const FitOptions& opt);
+
+/// Fits both ends of every feature edge (TBB-parallel, deterministic).
+CurveFitResult fit_feature_curves(const Mesh& mesh, const Topology& T, const Features& feat,
+                                  int p, const FitOptions& opt = {});
+
+/// Point at parameter t in [0,1] of feature edge e: the two end fits blended linearly.
+Eigen::Vector3d curve_edge_point(const Mesh& mesh, const Topology& T, const CurveFitResult& C,
+                                 int e, double t);
+
+}  // namespace hocurve

@@ -1,0 +1,271 @@
+#include "engine/curving/local_fit.hpp"
+
+#include <Eigen/Geometry>
+#include <Eigen/QR>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <unordered_set>
+
+namespace hocurve {
+
+namespace {
+
+/// Monomials (u^j v^k, 1 <= j+k <= p; by degree, then descending j) of scaled coordinates.
+void monomials(double u, double v, int p, double* out) {
+  double pu[8], pv[8];
+  pu[0] = pv[0] = 1.0;
+  for (int i = 1; i <= p; ++i) pu[i] = pu[i - 1] * u, pv[i] = pv[i - 1] * v;
+  int k = 0;
+  for (int d = 1; d <= p; ++d)
+    for (int j = d; j >= 0; --j) out[k++] = pu[j] * pv[d - j];
+}
+
+/// Column-scaled, column-pivoted QR solve of min |A c - b|; false when rank deficient.
+bool solve_scaled(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, double rank_tol,
+                  Eigen::VectorXd& c) {
+  const Eigen::Index m = A.cols();
+  Eigen::VectorXd scale(m);
+  Eigen::MatrixXd As = A;
+  for (Eigen::Index j = 0; j < m; ++j) {
+    double s = As.col(j).norm();
+    if (!(s > 0)) return false;
+    scale[j] = 1.0 / s;
+    As.col(j) *= scale[j];
+  }
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(As);
+  qr.setThreshold(rank_tol);
+  if (qr.rank() < m) return false;
+  c = qr.solve(b);
+  c.array() *= scale.array();
+  return c.allFinite();
+}
+
+}  // namespace
+
+void tangent_frame(const Eigen::Vector3d& n, Eigen::Vector3d& t1, Eigen::Vector3d& t2) {
+  Eigen::Vector3d a = std::abs(n.x()) >= std::abs(n.y()) && std::abs(n.x()) >= std::abs(n.z())
+                          ? Eigen::Vector3d::UnitY()
+                          : Eigen::Vector3d::UnitX();
+  t1 = (a - a.dot(n) * n).normalized();
+  t2 = n.cross(t1);
+}
+
+double LocalFit::height(double u, double v) const {
+  if (degree <= 0) return 0.0;
+  double mono[40];
+  monomials(u / h, v / h, degree, mono);
+  double s = 0;
+  for (Eigen::Index k = 0; k < c.size(); ++k) s += c[k] * mono[k];
+  return s * h;
+}
+
+Eigen::Vector3d LocalFit::project(const Eigen::Vector3d& x) const {
+  const Eigen::Vector3d d = x - o;
+  const double u = d.dot(t1), v = d.dot(t2);
+  return o + u * t1 + v * t2 + height(u, v) * n;
+}
+
+LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, double h,
+                          const Eigen::MatrixXd& P, const Eigen::VectorXd& w, int degree,
+                          const FitOptions& opt, const Eigen::MatrixXd& Q,
+                          const Eigen::VectorXd& wq) {
+  LocalFit F;
+  F.o = o;
+  F.n = n;
+  tangent_frame(n, F.t1, F.t2);
+  F.h = h;
+  F.requested_degree = degree;
+  F.points = static_cast<int>(P.rows());
+  F.support_points = static_cast<int>(Q.rows());
+  const int k = static_cast<int>(P.rows()) + static_cast<int>(Q.rows());
+  const int mmax = fit_coefficients(degree);
+  // Full-degree rows once; lower degrees use the leading columns.
+  Eigen::MatrixXd A(k, mmax);
+  Eigen::VectorXd b(k);
+  double mono[40];
+  for (int i = 0; i < k; ++i) {
+    const bool is_vertex = i < P.rows();
+    const Eigen::Vector3d q = is_vertex ? Eigen::Vector3d(P.row(i)) : Eigen::Vector3d(Q.row(i - P.rows()));
+    const double wi = is_vertex ? w[i] : wq[i - P.rows()];
+    const Eigen::Vector3d d = q - o;
+    monomials(d.dot(F.t1) / h, d.dot(F.t2) / h, degree, mono);
+    for (int j = 0; j < mmax; ++j) A(i, j) = wi * mono[j];
+    b[i] = wi * d.dot(n) / h;
+  }
+  for (int p = degree; p >= 1; --p) {
+    const int m = fit_coefficients(p);
+    if (k < m) continue;
+    Eigen::VectorXd c;
+    if (!solve_scaled(A.leftCols(m), b, opt.rank_tol, c)) continue;
+    bool ok = true;
+    if (opt.safeguard && p >= 3 && k < opt.safeguard_skip * m) {
+      for (int d = p - 1; d >= 2 && ok; --d) {
+        Eigen::VectorXd ct;
+        const int md = fit_coefficients(d);
+        if (!solve_scaled(A.leftCols(md), b, opt.rank_tol, ct)) { ok = false; break; }
+        for (int j = fit_coefficients(d - 1); j < md; ++j) {
+          const double diff = std::abs(c[j] - ct[j]);
+          if (diff > opt.safeguard_tol && diff >= 1.05 * std::abs(ct[j])) { ok = false; break; }
+        }
+      }
+    }
+    if (!ok) continue;
+    F.degree = p;
+    F.c = c;
+    return F;
+  }
+  F.degree = 0;
+  F.c.resize(0);
+  return F;
+}
+
+LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
+                   const SupportPoints* support, const std::vector<int>& support_start,
+                   const std::vector<int>& support_index, const FitOptions& opt) {
+  const int v = W.wedge_vertex[w];
+  const Eigen::Vector3d o = mesh.V.row(v).transpose();
+  // Area-weighted normal and mean incident edge length of the wedge.
+  Eigen::Vector3d n0 = Eigen::Vector3d::Zero();
+  double hsum = 0;
+  int hcount = 0;
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
+    const int f = W.wedge_faces[i];
+    int j = 0;
+    while (mesh.F(f, j) != v) ++j;
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, (j + 1) % 3)).transpose() - o;
+    const Eigen::Vector3d c = mesh.V.row(mesh.F(f, (j + 2) % 3)).transpose() - o;
+    n0 += a.cross(c);
+    hsum += a.norm() + c.norm();
+    hcount += 2;
+  }
+  const double h = hcount ? std::max(hsum / hcount, 1e-300) : 1.0;
+  if (n0.norm() > 0) n0.normalize();
+  else n0 = Eigen::Vector3d::UnitZ();
+
+  const int m = fit_coefficients(p);
+  const int need = static_cast<int>(std::ceil(opt.points_per_coef * m));
+  StencilOptions so;
+  so.min_rings = 1;
+  so.max_rings = opt.max_rings;
+  so.target_points = need + 1;
+  so.max_points = opt.max_points;
+  const Stencil S = grow_stencil(mesh, T, W, w, so);
+
+  // Normal cone: keep vertices seen by at least one region face facing like n0.
+  std::unordered_set<int> seen;
+  auto face_normal = [&](int f) {
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)),
+                          c = mesh.V.row(mesh.F(f, 2));
+    Eigen::Vector3d nf = (b - a).cross(c - a);
+    const double l = nf.norm();
+    return l > 0 ? Eigen::Vector3d(nf / l) : Eigen::Vector3d::Zero();
+  };
+  for (int f : S.faces)
+    if (face_normal(f).dot(n0) > opt.normal_cone)
+      for (int j = 0; j < 3; ++j) seen.insert(mesh.F(f, j));
+  std::vector<int> pts;
+  for (size_t i = 1; i < S.vertices.size(); ++i)
+    if (seen.count(S.vertices[i])) pts.push_back(S.vertices[i]);
+  const int k = static_cast<int>(pts.size());
+  Eigen::MatrixXd P(k, 3);
+  Eigen::VectorXd dist(k);
+  for (int i = 0; i < k; ++i) {
+    P.row(i) = mesh.V.row(pts[i]);
+    dist[i] = (P.row(i).transpose() - o).norm();
+  }
+  // Weights.
+  Eigen::VectorXd wt(k);
+  double sigma = opt.sigma_factor * h;
+  if (k > 0) {
+    std::vector<double> sd(dist.data(), dist.data() + k);
+    std::sort(sd.begin(), sd.end());
+    sigma = std::max(sigma, 0.5 * sd[std::min(k, need) - 1]);
+  }
+  auto gauss = [&](double d) { return std::exp(-d * d / (2 * sigma * sigma)); };
+  if (opt.weight == WeightKind::Gaussian) {
+    for (int i = 0; i < k; ++i) wt[i] = gauss(dist[i]);
+  } else {
+    double mean2 = k ? dist.squaredNorm() / k : 1.0;
+    for (int i = 0; i < k; ++i) wt[i] = std::pow(dist[i] * dist[i] / mean2 + 0.01, -0.5 * p);
+  }
+
+  LocalFit fit = solve_height_fit(o, n0, h, P, wt, p, opt);
+  if (opt.refine_normal && fit.degree >= 1) {
+    Eigen::Vector3d n1 = n0 - fit.c[0] * fit.t1 - fit.c[1] * fit.t2;
+    if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) fit = solve_height_fit(o, n1.normalized(), h, P, wt, p, opt);
+  }
+  fit.rings = S.rings;
+
+  if (support && (opt.support_everywhere || fit.degree < p) && !support_start.empty()) {
+    const double R = k ? dist.maxCoeff() : 3 * h;
+    std::vector<int> sel;
+    for (int f : S.faces) {
+      if (face_normal(f).dot(fit.n) <= opt.normal_cone) continue;
+      for (int i = support_start[f]; i < support_start[f + 1]; ++i) {
+        const int s = support_index[i];
+        if ((support->P.row(s).transpose() - o).norm() <= R) sel.push_back(s);
+      }
+    }
+    if (!sel.empty()) {
+      const int ns = static_cast<int>(sel.size());
+      Eigen::MatrixXd Q(ns, 3);
+      Eigen::VectorXd wq(ns);
+      for (int i = 0; i < ns; ++i) {
+        Q.row(i) = support->P.row(sel[i]);
+        const double d = (Q.row(i).transpose() - o).norm();
+        wq[i] = opt.support_weight * (opt.weight == WeightKind::Gaussian ? gauss(d) : 1.0);
+      }
+      // Proximal lifting: raw facet samples first, then samples lifted onto the last fit.
+      LocalFit fs = solve_height_fit(o, fit.n, h, P, wt, p, opt, Q, wq);
+      for (int it = 0; it < opt.support_lifts && fs.degree > 0; ++it) {
+        Eigen::MatrixXd Ql(ns, 3);
+        for (int i = 0; i < ns; ++i) Ql.row(i) = fs.project(Q.row(i).transpose()).transpose();
+        fs = solve_height_fit(o, fit.n, h, P, wt, p, opt, Ql, wq);
+      }
+      if (fs.degree >= fit.degree) {
+        fs.rings = S.rings;
+        fit = fs;
+      }
+    }
+  }
+  return fit;
+}
+
+FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
+                     const SupportPoints* support, const FitOptions& opt) {
+  const auto t0 = std::chrono::steady_clock::now();
+  FitResult R;
+  const int nw = W.num_wedges();
+  R.fits.resize(nw);
+  std::vector<int> sstart, sindex;
+  if (support && support->P.rows() > 0) {
+    const int nf = mesh.num_faces();
+    sstart.assign(nf + 1, 0);
+    for (Eigen::Index s = 0; s < support->face.size(); ++s) ++sstart[support->face[s] + 1];
+    for (int f = 0; f < nf; ++f) sstart[f + 1] += sstart[f];
+    sindex.resize(sstart[nf]);
+    std::vector<int> fill(sstart.begin(), sstart.end() - 1);
+    for (Eigen::Index s = 0; s < support->face.size(); ++s) sindex[fill[support->face[s]]++] = static_cast<int>(s);
+  }
+  tbb::parallel_for(tbb::blocked_range<int>(0, nw), [&](const tbb::blocked_range<int>& r) {
+    for (int w = r.begin(); w < r.end(); ++w)
+      R.fits[w] = fit_wedge(mesh, T, W, w, p, support, sstart, sindex, opt);
+  });
+  R.degree_histogram.assign(p + 1, 0);
+  double pts = 0;
+  for (const auto& f : R.fits) {
+    ++R.degree_histogram[f.degree];
+    if (f.degree < p) ++R.downgraded;
+    if (f.support_points > 0) ++R.with_support;
+    pts += f.points;
+  }
+  R.mean_points = nw ? pts / nw : 0;
+  R.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return R;
+}
+
+}  // namespace hocurve

@@ -1,0 +1,101 @@
+// Per-vertex weighted least-squares height-function fits (the "local fittings" of SOLF).
+// Each wedge of each vertex gets a polynomial f(u, v) over its tangent plane that passes
+// through the vertex (interpolatory: no constant term), fitted to the stencil's vertices.
+#pragma once
+#include "engine/core/mesh.hpp"
+#include "engine/core/topology.hpp"
+#include "engine/curving/stencil.hpp"
+#include "engine/curving/support_points.hpp"
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace hocurve {
+
+/// Row weights of the least-squares system.
+/// Gaussian: exp(-d^2 / 2 sigma^2) (the SOLF paper's MLS weight);
+/// InverseDistance: (d^2 / mean d^2 + 0.01)^(-p/2) (MOAB's WALF weight, fitting.md section 2).
+enum class WeightKind { Gaussian, InverseDistance };
+
+struct FitOptions {
+  WeightKind weight = WeightKind::Gaussian;
+  /// sigma = max(sigma_factor * local mean edge length, half the distance to the
+  /// ceil(points_per_coef * #coefficients)-th nearest stencil vertex): fixed in h for low p,
+  /// widened automatically where high p needs more points with weight.
+  double sigma_factor = 1.0;
+  double points_per_coef = 1.5;  ///< grow rings until #points >= this x #coefficients
+  int max_rings = 6;
+  int max_points = 128;
+  bool refine_normal = true;     ///< refit in the frame of the first fit's normal
+  /// Degree reduction (fitting.md 2.7): a degree-d block that changes by more than
+  /// safeguard_tol (in units of h) and by >= 105 % of itself when the fit is truncated at
+  /// degree d lowers the degree. Skipped when the stencil has >= safeguard_skip x #coefficients
+  /// points (well-determined fits on fine meshes: the check only loses accuracy there).
+  bool safeguard = true;
+  double safeguard_tol = 0.05;
+  double safeguard_skip = 2.0;
+  double rank_tol = 1e-10;       ///< numerical rank: |R_kk| <= rank_tol * |R_00|
+  double normal_cone = 0.1;      ///< drop stencil vertices seen only by faces with n_f . n <= this
+  /// Support points: their row weight is support_weight x their Gaussian weight, and they are
+  /// lifted support_lifts times onto the current fit (proximal iteration): in directions the
+  /// vertices determine the fit converges to the vertex-only fit, so facet samples cannot
+  /// cap the accuracy at O(h^2); in directions the vertices leave open they decide.
+  double support_weight = 0.1;
+  int support_lifts = 3;
+  bool support_everywhere = false;  ///< testing: add support points to every fit, not only short ones
+};
+
+/// Number of coefficients of the interpolatory basis u^j v^k, 1 <= j+k <= p.
+inline int fit_coefficients(int p) { return (p + 1) * (p + 2) / 2 - 1; }
+
+/// A height-function fit over the local frame (o; t1, t2, n). Coefficients c multiply the
+/// monomials (u/h)^j (v/h)^k ordered by degree, then by descending j, and give height / h.
+struct LocalFit {
+  Eigen::Vector3d o = Eigen::Vector3d::Zero(), t1 = Eigen::Vector3d::UnitX(),
+                  t2 = Eigen::Vector3d::UnitY(), n = Eigen::Vector3d::UnitZ();
+  double h = 1.0;
+  int requested_degree = 0;
+  int degree = 0;               ///< degree actually fitted (0: the tangent plane)
+  Eigen::VectorXd c;
+  int points = 0;               ///< stencil vertices used (centre excluded)
+  int support_points = 0;       ///< support points used
+  int rings = 0;
+
+  /// Height above the tangent plane at (u, v).
+  double height(double u, double v) const;
+  /// The fitted surface point above x (x projected along n onto the fit).
+  Eigen::Vector3d project(const Eigen::Vector3d& x) const;
+};
+
+/// Orthonormal tangent pair for a unit normal (fitting.md 2.2).
+void tangent_frame(const Eigen::Vector3d& n, Eigen::Vector3d& t1, Eigen::Vector3d& t2);
+
+/// Solves one interpolatory weighted least-squares fit at origin o with normal n, scale h,
+/// to points P (#P x 3) with row weights w, lowering the degree when the system is short,
+/// rank deficient or fails the safeguard. Q/ wq: extra (support) points and row weights.
+LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, double h,
+                          const Eigen::MatrixXd& P, const Eigen::VectorXd& w, int degree,
+                          const FitOptions& opt, const Eigen::MatrixXd& Q = Eigen::MatrixXd(),
+                          const Eigen::VectorXd& wq = Eigen::VectorXd());
+
+/// Result of fitting every wedge.
+struct FitResult {
+  std::vector<LocalFit> fits;             ///< per wedge
+  std::vector<long long> degree_histogram;  ///< [d] = number of fits of final degree d
+  long long downgraded = 0;               ///< fits below the requested degree
+  long long with_support = 0;             ///< fits that used support points
+  double mean_points = 0;
+  double seconds = 0;
+};
+
+/// Fits every wedge of W at degree p (TBB-parallel, deterministic). support may be null.
+FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
+                     const SupportPoints* support, const FitOptions& opt = {});
+
+/// Fits one wedge (what fit_wedges does per item). support_by_face: CSR of support point
+/// indices per face (may be empty).
+LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
+                   const SupportPoints* support, const std::vector<int>& support_start,
+                   const std::vector<int>& support_index, const FitOptions& opt);
+
+}  // namespace hocurve

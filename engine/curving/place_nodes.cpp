@@ -1,0 +1,86 @@
+#include "engine/curving/place_nodes.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+
+namespace hocurve {
+
+Eigen::Vector3d blend_point(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits,
+                            int f, const Eigen::Vector3d& xi) {
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  for (int j = 0; j < 3; ++j) x += xi[j] * mesh.V.row(mesh.F(f, j)).transpose();
+  Eigen::Vector3d out = Eigen::Vector3d::Zero();
+  for (int j = 0; j < 3; ++j)
+    if (xi[j] != 0.0) out += xi[j] * fits[W.corner_wedge(f, j)].project(x);
+  return out;
+}
+
+PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W,
+                            const std::vector<LocalFit>& fits, const Features* feat,
+                            const CurveFitResult* curves, int p, NodeDistribution d) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PlacementResult R;
+  HighOrderMesh& hm = R.mesh;
+  hm.order = p;
+  hm.distribution = d;
+  hm.V = mesh.V;
+  hm.F = mesh.F;
+  hm.E = T.E;
+  hm.FE = T.FE;
+  hm.face_entity = mesh.face_entity;
+  hm.physicals = mesh.physicals;
+  const int ne = T.num_edges(), nf = mesh.num_faces();
+  const int npe = p - 1, npf = (p - 1) * (p - 2) / 2;
+  hm.edge_nodes.resize(static_cast<Eigen::Index>(ne) * npe, 3);
+  hm.face_nodes.resize(static_cast<Eigen::Index>(nf) * npf, 3);
+  if (p <= 1) return R;
+  const Eigen::VectorXd line = line_reference_nodes(p, d);
+  const Eigen::MatrixXd tri = triangle_reference_nodes(p, d);
+
+  std::vector<char> on_curve(ne, 0);
+  if (feat && curves)
+    for (int e = 0; e < ne; ++e)
+      on_curve[e] = !feat->edge_feature.empty() && feat->edge_feature[e] && curves->fits[2 * e].degree >= 0;
+  tbb::parallel_for(tbb::blocked_range<int>(0, ne), [&](const tbb::blocked_range<int>& r) {
+    for (int e = r.begin(); e < r.end(); ++e) {
+      const int a = T.E(e, 0);
+      const int f = T.edge_faces[e].empty() ? -1 : T.edge_faces[e][0];
+      int ja = -1, jb = -1;
+      if (f >= 0)
+        for (int j = 0; j < 3; ++j) {
+          if (mesh.F(f, j) == a) ja = j;
+          if (mesh.F(f, j) == T.E(e, 1)) jb = j;
+        }
+      for (int k = 1; k < p; ++k) {
+        const double t = line[k];
+        Eigen::Vector3d q;
+        if (on_curve[e] || f < 0) {
+          q = curves ? curve_edge_point(mesh, T, *curves, e, t)
+                     : Eigen::Vector3d((1 - t) * mesh.V.row(a) + t * mesh.V.row(T.E(e, 1)));
+        } else {
+          Eigen::Vector3d xi = Eigen::Vector3d::Zero();
+          xi[ja] = 1 - t;
+          xi[jb] = t;
+          q = blend_point(mesh, W, fits, f, xi);
+        }
+        hm.edge_nodes.row(static_cast<Eigen::Index>(e) * npe + k - 1) = q.transpose();
+      }
+    }
+  });
+  if (npf > 0)
+    tbb::parallel_for(tbb::blocked_range<int>(0, nf), [&](const tbb::blocked_range<int>& r) {
+      for (int f = r.begin(); f < r.end(); ++f)
+        for (int k = 0; k < npf; ++k) {
+          const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
+          const Eigen::Vector3d xi(1 - u - v, u, v);
+          hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k) = blend_point(mesh, W, fits, f, xi).transpose();
+        }
+    });
+  for (int e = 0; e < ne; ++e) R.curve_edges += on_curve[e];
+  R.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return R;
+}
+
+}  // namespace hocurve

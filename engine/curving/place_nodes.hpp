@@ -1,0 +1,35 @@
+// High-order node placement: the WALF blend of the corner fits at each reference node.
+// Edge nodes depend only on the edge's two end fits and are computed once per edge, so the
+// mesh is conforming by construction; edges on feature curves follow the curve fits.
+#pragma once
+#include "engine/core/mesh.hpp"
+#include "engine/core/topology.hpp"
+#include "engine/curving/curve_fit.hpp"
+#include "engine/curving/features.hpp"
+#include "engine/curving/local_fit.hpp"
+#include "engine/curving/stencil.hpp"
+#include "engine/highorder/high_order_mesh.hpp"
+
+#include <vector>
+
+namespace hocurve {
+
+/// Surface point for barycentric coordinates xi of face f: x = sum xi_j X_j pushed onto each
+/// corner's wedge fit, blended with weights xi (fitting.md section 3).
+Eigen::Vector3d blend_point(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits,
+                            int f, const Eigen::Vector3d& xi);
+
+struct PlacementResult {
+  HighOrderMesh mesh;
+  long long curve_edges = 0;   ///< edges placed along feature-curve fits
+  double seconds = 0;
+};
+
+/// Places the order-p nodes (distribution d) of every edge and face (TBB-parallel; every item
+/// is computed independently, so the result does not depend on the thread count).
+/// curves / feat may be null: then every edge uses the surface blend.
+PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W,
+                            const std::vector<LocalFit>& fits, const Features* feat,
+                            const CurveFitResult* curves, int p, NodeDistribution d);
+
+}  // namespace hocurve

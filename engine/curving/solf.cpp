@@ -1,0 +1,138 @@
+#include "engine/curving/solf.hpp"
+
+#include "engine/core/error.hpp"
+#include "engine/core/topology.hpp"
+#include "engine/curving/place_nodes.hpp"
+#include "engine/curving/stencil.hpp"
+
+#include <chrono>
+#include <cmath>
+
+namespace hocurve {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+}  // namespace
+
+Deviation measure_deviation(const Mesh& mesh, const HighOrderMesh& hm) {
+  Deviation D;
+  if (mesh.num_vertices() > 0)
+    D.bbox_diagonal = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).norm();
+  const int p = hm.order;
+  if (p <= 1) return D;
+  const Eigen::VectorXd line = line_reference_nodes(p, hm.distribution);
+  const Eigen::MatrixXd tri = triangle_reference_nodes(p, hm.distribution);
+  const int npe = hm.nodes_per_edge(), npf = hm.nodes_per_face();
+  double sum2 = 0;
+  long long count = 0;
+  auto add = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    const double d = (a - b).norm();
+    D.max = std::max(D.max, d);
+    sum2 += d * d;
+    ++count;
+  };
+  for (Eigen::Index e = 0; e < hm.E.rows(); ++e)
+    for (int k = 1; k < p; ++k) {
+      const double t = line[k];
+      const Eigen::Vector3d x = (1 - t) * mesh.V.row(hm.E(e, 0)) + t * mesh.V.row(hm.E(e, 1));
+      add(hm.edge_nodes.row(e * npe + k - 1).transpose(), x);
+    }
+  for (int f = 0; f < hm.num_faces(); ++f)
+    for (int k = 0; k < npf; ++k) {
+      const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
+      const Eigen::Vector3d x = (1 - u - v) * mesh.V.row(mesh.F(f, 0)) + u * mesh.V.row(mesh.F(f, 1)) +
+                                v * mesh.V.row(mesh.F(f, 2));
+      add(hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k).transpose(), x);
+    }
+  D.rms = count ? std::sqrt(sum2 / count) : 0;
+  if (D.bbox_diagonal > 0) D.max_relative = D.max / D.bbox_diagonal, D.rms_relative = D.rms / D.bbox_diagonal;
+  return D;
+}
+
+CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
+  if (opt.order < 1 || opt.order > 6)
+    throw UsageError("order " + std::to_string(opt.order) + " is outside 1..6");
+  if (mesh.num_faces() == 0 || mesh.num_vertices() < 3) throw InputError("", "the mesh has no triangles");
+  const auto t_all = Clock::now();
+  const int p = opt.order;
+  auto progress = [&](const char* stage, double f) {
+    if (opt.progress) opt.progress(stage, f);
+  };
+  CurveResult R;
+  R.method = opt.method == CurveOptions::Method::Solf ? "solf" : "linear";
+  R.vertices = mesh.num_vertices();
+  R.faces = mesh.num_faces();
+
+  progress("topology", 0.0);
+  auto t0 = Clock::now();
+  const Topology T = build_topology(mesh.F, mesh.num_vertices());
+  R.edges = T.num_edges();
+  R.topology_seconds = since(t0);
+
+  if (opt.method == CurveOptions::Method::Linear) {
+    progress("placement", 0.5);
+    t0 = Clock::now();
+    R.mesh = make_straight_high_order(mesh, T, p, opt.distribution);
+    R.placement_seconds = since(t0);
+  } else {
+    progress("features", 0.05);
+    t0 = Clock::now();
+    R.features = detect_features(mesh, T, opt.features);
+    R.features_seconds = since(t0);
+
+    progress("distance", 0.1);
+    t0 = Clock::now();
+    R.distance = feature_distance(mesh, T, R.features, opt.distance);
+    R.distance_seconds = since(t0);
+
+    progress("uniformity", 0.15);
+    t0 = Clock::now();
+    R.uniformity = check_uniformity(mesh, T, opt.uniformity);
+    R.uniformity_seconds = since(t0);
+
+    R.support_used = opt.use_support == Tristate::On ||
+                     (opt.use_support == Tristate::Auto && !R.uniformity.uniform);
+    SupportPoints support;
+    if (R.support_used && p >= 2) {
+      progress("support", 0.2);
+      t0 = Clock::now();
+      support = sample_support(mesh, opt.support);
+      R.support_points = support.P.rows();
+      R.support_seconds = since(t0);
+    }
+
+    progress("fits", 0.25);
+    const Wedges W = build_wedges(mesh, T, R.features.edge_feature);
+    R.wedges = W.num_wedges();
+    if (p >= 2) {
+      R.fits = fit_wedges(mesh, T, W, p, R.support_used ? &support : nullptr, opt.fit);
+      progress("curve fits", 0.6);
+      R.curve_fits = fit_feature_curves(mesh, T, R.features, p, opt.fit);
+    } else {
+      R.fits.fits.resize(W.num_wedges());
+      R.fits.degree_histogram.assign(2, 0);
+    }
+
+    progress("placement", 0.7);
+    PlacementResult P = place_nodes(mesh, T, W, R.fits.fits, &R.features,
+                                    R.curve_fits.fits.empty() ? nullptr : &R.curve_fits, p,
+                                    opt.distribution);
+    R.mesh = std::move(P.mesh);
+    R.curve_edges = P.curve_edges;
+    R.placement_seconds = P.seconds;
+  }
+
+  progress("validity", 0.85);
+  t0 = Clock::now();
+  R.validity = opt.repair ? repair_validity(R.mesh, opt.validity) : check_validity(R.mesh, opt.validity);
+  R.validity_seconds = since(t0);
+  R.deviation = measure_deviation(mesh, R.mesh);
+  R.total_seconds = since(t_all);
+  progress("done", 1.0);
+  return R;
+}
+
+}  // namespace hocurve

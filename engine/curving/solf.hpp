@@ -1,0 +1,79 @@
+// The SOLF curving pipeline: topology -> features -> feature distance -> uniformity ->
+// support points -> local fits per wedge and per feature curve -> node placement -> validity
+// repair. Every stage reports its figures and its seconds.
+#pragma once
+#include "engine/core/mesh.hpp"
+#include "engine/curving/curve_fit.hpp"
+#include "engine/curving/distance_field.hpp"
+#include "engine/curving/features.hpp"
+#include "engine/curving/local_fit.hpp"
+#include "engine/curving/support_points.hpp"
+#include "engine/curving/uniformity.hpp"
+#include "engine/highorder/high_order_mesh.hpp"
+#include "engine/highorder/validity.hpp"
+
+#include <functional>
+#include <string>
+
+namespace hocurve {
+
+/// Auto: decided by the uniformity check (support points only for non-uniform meshes).
+enum class Tristate { Auto, On, Off };
+
+struct CurveOptions {
+  int order = 4;                                   ///< 1..6
+  NodeDistribution distribution = NodeDistribution::Equispaced;
+  enum class Method { Solf, Linear } method = Method::Solf;
+  FeatureOptions features;
+  DistanceOptions distance;
+  UniformityOptions uniformity;
+  SupportOptions support;
+  FitOptions fit;
+  ValidityOptions validity;
+  Tristate use_support = Tristate::Auto;
+  bool repair = true;                              ///< run repair_validity (else only check)
+  /// Called on the calling thread between stages with the stage name and the overall fraction done.
+  std::function<void(const std::string& stage, double fraction)> progress;
+};
+
+/// Deviation of the curved surface from the input: high-order node offsets from their
+/// positions on the straight triangles.
+struct Deviation {
+  double max = 0, rms = 0;
+  double bbox_diagonal = 0;
+  double max_relative = 0, rms_relative = 0;  ///< over the bounding-box diagonal
+};
+
+struct CurveResult {
+  HighOrderMesh mesh;
+  std::string method;
+  int vertices = 0, faces = 0, edges = 0;
+  double topology_seconds = 0;
+  Features features;
+  double features_seconds = 0;
+  DistanceField distance;
+  double distance_seconds = 0;
+  Uniformity uniformity;
+  double uniformity_seconds = 0;
+  bool support_used = false;
+  long long support_points = 0;
+  double support_seconds = 0;
+  long long wedges = 0;
+  FitResult fits;                 ///< per-wedge fits (the fits vector itself is kept for callers)
+  CurveFitResult curve_fits;
+  long long curve_edges = 0;
+  double placement_seconds = 0;
+  ValidityReport validity;
+  double validity_seconds = 0;
+  Deviation deviation;
+  double total_seconds = 0;
+};
+
+/// Curves a linear triangle mesh to order opt.order. Throws UsageError for an order outside
+/// 1..6, InputError for an empty mesh.
+CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt = {});
+
+/// Offsets of hm's high-order nodes from the straight triangles of mesh.
+Deviation measure_deviation(const Mesh& mesh, const HighOrderMesh& hm);
+
+}  // namespace hocurve

@@ -1,0 +1,60 @@
+#include "engine/curving/stats_json.hpp"
+
+namespace hocurve {
+
+nlohmann::json stats_json(const CurveResult& r) {
+  using nlohmann::json;
+  json j;
+  j["method"] = r.method;
+  j["order"] = r.mesh.order;
+  j["distribution"] = to_string(r.mesh.distribution);
+  j["topology"] = {{"vertices", r.vertices}, {"faces", r.faces}, {"edges", r.edges},
+                   {"seconds", r.topology_seconds}};
+  const Features& F = r.features;
+  long long feature_edges = 0;
+  for (char c : F.edge_feature) feature_edges += c ? 1 : 0;
+  j["features"] = {{"feature_edges", feature_edges},  {"sharp_edges", F.sharp_edges},
+                   {"boundary_edges", F.boundary_edges}, {"nonmanifold_edges", F.nonmanifold_edges},
+                   {"entity_border_edges", F.entity_border_edges}, {"corners", F.corners},
+                   {"curves", F.curves.size()},         {"seconds", r.features_seconds}};
+  j["distance"] = {{"max_finite", r.distance.max_finite}, {"seconds", r.distance_seconds}};
+  const Uniformity& U = r.uniformity;
+  j["uniformity"] = {{"uniform", U.uniform},
+                     {"reason", U.reason},
+                     {"edge_length", {{"min", U.edge_length.min}, {"mean", U.edge_length.mean},
+                                      {"max", U.edge_length.max}, {"cv", U.edge_length.cv},
+                                      {"p99_p1", U.edge_length.ratio_p99_p1()}}},
+                     {"area_cv", U.area.cv},
+                     {"needle_share", U.needle_share},
+                     {"seconds", r.uniformity_seconds}};
+  j["support"] = {{"used", r.support_used}, {"points", r.support_points}, {"seconds", r.support_seconds}};
+  json hist = json::object();
+  for (size_t d = 0; d < r.fits.degree_histogram.size(); ++d)
+    hist[std::to_string(d)] = r.fits.degree_histogram[d];
+  j["fits"] = {{"wedges", r.wedges},
+               {"degree_histogram", hist},
+               {"downgraded", r.fits.downgraded},
+               {"with_support", r.fits.with_support},
+               {"mean_stencil_points", r.fits.mean_points},
+               {"seconds", r.fits.seconds}};
+  j["curve_fits"] = {{"fitted", r.curve_fits.fitted}, {"downgraded", r.curve_fits.downgraded},
+                     {"seconds", r.curve_fits.seconds}};
+  j["placement"] = {{"curve_edges", r.curve_edges}, {"seconds", r.placement_seconds}};
+  const ValidityReport& V = r.validity;
+  j["validity"] = {{"checked", V.checked},
+                   {"invalid_before", V.invalid_before},
+                   {"repaired", V.repaired},
+                   {"invalid_after", V.invalid_after},
+                   {"degenerate_input", V.degenerate_input},
+                   {"min_scaled_jacobian", V.min_scaled_jacobian},
+                   {"seconds", r.validity_seconds}};
+  j["deviation"] = {{"max", r.deviation.max},
+                    {"rms", r.deviation.rms},
+                    {"bbox_diagonal", r.deviation.bbox_diagonal},
+                    {"max_relative", r.deviation.max_relative},
+                    {"rms_relative", r.deviation.rms_relative}};
+  j["total_seconds"] = r.total_seconds;
+  return j;
+}
+
+}  // namespace hocurve

@@ -1,0 +1,52 @@
+// Fitting stencils that never cross feature edges: the wedges of each vertex (sectors of
+// incident faces between consecutive feature edges) and ring growth from a wedge.
+#pragma once
+#include "engine/core/mesh.hpp"
+#include "engine/core/topology.hpp"
+#include "engine/curving/features.hpp"
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace hocurve {
+
+/// Wedges of every vertex. A vertex off the features has one wedge holding all its faces; a
+/// vertex on a feature has one wedge per sector between feature (or boundary / non-manifold)
+/// edges. A face corner belongs to exactly one wedge.
+/// - wedge_vertex[w]: the vertex of wedge w.
+/// - wedge_start / wedge_faces: CSR list of the faces of wedge w (ascending).
+/// - corner_wedge: #F x 3, wedge of face f's corner j.
+/// - vertex_wedge_start: CSR, the wedges of vertex v are vertex_wedge_start[v] .. [v+1]-1
+///   (wedges are numbered by vertex, then by smallest face).
+struct Wedges {
+  std::vector<int> wedge_vertex;
+  std::vector<int> wedge_start, wedge_faces;
+  Eigen::MatrixXi corner_wedge;
+  std::vector<int> vertex_wedge_start;
+  int num_wedges() const { return static_cast<int>(wedge_vertex.size()); }
+};
+
+/// Splits the faces around every vertex into wedges separated by feature edges.
+/// edge_feature: per Topology edge, 1 if it is a feature (may be empty: no features).
+Wedges build_wedges(const Mesh& mesh, const Topology& T, const std::vector<char>& edge_feature);
+
+struct StencilOptions {
+  int min_rings = 2;        ///< rings always taken
+  int max_rings = 6;        ///< growth stops here even when short of points
+  int target_points = 20;   ///< grow rings until the stencil has at least this many vertices
+  int max_points = 128;     ///< growth stops once this many vertices are reached
+};
+
+/// One fitting stencil: the vertices reached (the centre first) and the faces of the region.
+struct Stencil {
+  std::vector<int> vertices;  ///< centre vertex first, then by ring, ascending index within a ring
+  std::vector<int> faces;     ///< faces of the grown region (ascending)
+  int rings = 0;
+};
+
+/// Grows rings from wedge w: each ring adds, around every vertex of the region, the faces of
+/// that vertex's wedges already touched by the region, so the region never crosses a feature.
+Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
+                     const StencilOptions& opt);
+
+}  // namespace hocurve
