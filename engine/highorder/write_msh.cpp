@@ -437,6 +437,9 @@ void write_msh(const HighOrderMesh& hm, std::ostream& os, const MshOptions& opt)
 
 std::string write_msh_string(const HighOrderMesh& hm, const MshOptions& opt) {
   std::string s;
+  // Rough size (exact for binary 4.1 up to the headers) to avoid repeated regrowth.
+  const size_t nodes = static_cast<size_t>(hm.V.rows() + hm.edge_nodes.rows() + hm.face_nodes.rows());
+  s.reserve(nodes * 32 + static_cast<size_t>(hm.num_faces()) * (triangle_node_count(std::clamp(hm.order, 1, 10)) + 1) * 8 + 4096);
   write_all(hm, opt, [&](const char* p, size_t n) { s.append(p, n); });
   return s;
 }
