@@ -10,6 +10,7 @@
 #include "engine/highorder/reference_nodes.hpp"
 
 #include <doctest/doctest.h>
+#include <gmsh.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -481,4 +482,64 @@ TEST_CASE("check_validity is deterministic and counts degenerate inputs; speed a
   CHECK(rd.invalid_after == 1);
   CHECK(rd.invalid_faces == std::vector<int>{0});
   CHECK(rd.min_scaled_jacobian == doctest::Approx(1));
+}
+
+TEST_CASE("verdicts agree with Gmsh's AnalyseMeshQuality (minJ/maxJ) on random elements") {
+  gmsh::initialize();
+  gmsh::option::setNumber("General.Terminal", 0);
+  std::mt19937 rng(77);
+  for (int p = 2; p <= 5; ++p) {
+    gmsh::model::add("validity_p" + std::to_string(p));
+    const int tag = gmsh::model::addDiscreteEntity(2);
+    const int n = triangle_node_count(p), count = 150;
+    std::vector<std::size_t> node_tags, elem_nodes, elem_tags;
+    std::vector<double> coords;
+    std::vector<ElementValidity> ours;
+    const JacobianBasis B(p);
+    for (int e = 0; e < count; ++e) {
+      const double amp = (0.1 + 0.5 * (e % 10) / 9.0) * 2.0 / p;
+      const Eigen::MatrixXd X = random_perturbed_element(p, amp, rng);
+      ours.push_back(check_element(B, X));
+      for (int k = 0; k < n; ++k) {
+        node_tags.push_back(node_tags.size() + 1);
+        elem_nodes.push_back(node_tags.back());
+        for (int c = 0; c < 3; ++c) coords.push_back(X(k, c));
+      }
+      elem_tags.push_back(e + 1);
+    }
+    gmsh::model::mesh::addNodes(2, tag, node_tags, coords);
+    gmsh::model::mesh::addElementsByType(tag, gmsh_triangle_type(p), elem_tags, elem_nodes);
+    gmsh::plugin::setNumber("AnalyseMeshQuality", "JacobianDeterminant", 1);
+    gmsh::plugin::setNumber("AnalyseMeshQuality", "CreateView", 1);
+    gmsh::plugin::setNumber("AnalyseMeshQuality", "DimensionOfElements", 2);
+    gmsh::plugin::setNumber("AnalyseMeshQuality", "Recompute", 1);
+    gmsh::plugin::run("AnalyseMeshQuality");
+    std::vector<int> views;
+    gmsh::view::getTags(views);
+    REQUIRE(!views.empty());
+    std::string type;
+    std::vector<std::size_t> tags;
+    std::vector<std::vector<double>> data;
+    double time;
+    int ncomp;
+    gmsh::view::getModelData(views.back(), 0, type, tags, data, time, ncomp);
+    REQUIRE(tags.size() == static_cast<size_t>(count));
+    int agree = 0, compared = 0;
+    for (size_t i = 0; i < tags.size(); ++i) {
+      const double ratio = data[i][0];  // Gmsh's bounded min J / max J
+      if (std::abs(ratio) < 1e-2) continue;  // too close to zero for either tolerance
+      const ElementValidity& ev = ours[tags[i] - 1];
+      ++compared;
+      if (ev.valid == (ratio > 0)) ++agree;
+      INFO("p " << p << " element " << tags[i] << " gmsh " << ratio << " ours " << ev.min_scaled_jacobian << " / "
+                << ev.max_scaled_jacobian);
+      CHECK(ev.valid == (ratio > 0));
+      // Our certified bounds bracket Gmsh's ratio: lo/hi <= minJ/maxJ (hi >= maxJ > 0).
+      if (ev.valid) CHECK(ev.min_scaled_jacobian / ev.max_scaled_jacobian <= ratio + 1e-3);
+    }
+    MESSAGE("p = " << p << ": verdicts agree with Gmsh on " << agree << " / " << compared << " elements");
+    for (int v : views) gmsh::view::remove(v);
+    gmsh::model::remove();
+  }
+  gmsh::finalize();
 }
