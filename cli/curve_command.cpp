@@ -24,7 +24,7 @@ const std::vector<OptionSpec> kCurveOptions = {
     {"method", true, "solf (default: fitted surface) | linear (nodes on the flat facets)"},
     {"nodes", true, "equispaced (default; what Gmsh's Lagrange elements assume) | lobatto"},
     {"format", true, "msh41 (default) | msh22"},
-    {"binary", false, "binary .msh (msh41 only)"},
+    {"binary", false, "binary .msh (little-endian, as Gmsh writes it)"},
     {"stats", true, "write every stage's figures and timings as JSON to this file"},
     {"threads", true, "worker threads (default: all cores)"},
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
@@ -59,16 +59,14 @@ int run_curve(int argc, char** argv) {
   opt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
   opt.features.angle_deg = a.get_double("feature-angle", opt.features.angle_deg, 0.0, 180.0);
   const std::string support = a.get_choice("support", "auto", {"auto", "on", "off"});
-  opt.use_support = support == "on"    ? CurveOptions::Support::On
-                    : support == "off" ? CurveOptions::Support::Off
-                                       : CurveOptions::Support::Auto;
+  opt.use_support = support == "on"    ? Tristate::On
+                    : support == "off" ? Tristate::Off
+                                       : Tristate::Auto;
   opt.support.seed = static_cast<std::uint64_t>(a.get_int("seed", 1, 0, (1LL << 62)));
   MshOptions msh;
   msh.version = a.get_choice("format", "msh41", {"msh41", "msh22"}) == "msh22" ? MshOptions::Version::V22
                                                                               : MshOptions::Version::V41;
   msh.binary = a.has("binary");
-  if (msh.binary && msh.version == MshOptions::Version::V22)
-    throw UsageError("--binary is supported with --format msh41 only");
   std::unique_ptr<tbb::global_control> threads;
   if (a.has("threads"))
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
