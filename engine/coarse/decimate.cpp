@@ -1,0 +1,564 @@
+#include "engine/coarse/decimate.hpp"
+
+#include "engine/coarse/flatten.hpp"
+#include "engine/coarse/quadric.hpp"
+#include "engine/core/error.hpp"
+#include "engine/core/topology.hpp"
+#include "engine/curving/features.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <queue>
+#include <string>
+#include <unordered_set>
+
+namespace hocurve {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+std::uint64_t edge_key(int a, int b) {
+  if (a > b) std::swap(a, b);
+  return (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b);
+}
+
+/// Feature marks the decimation respects. Boundary edges are always features (they are never
+/// collapsed); sharp edges and entity borders only when preserve_features.
+struct FeatureMarks {
+  std::vector<char> edge;    ///< per topology edge
+  std::vector<char> vertex;  ///< on a feature edge
+  std::vector<char> corner;  ///< never removed
+};
+
+/// Feature marks from curving/features.hpp's detect_features; without feature preservation
+/// only the open boundary is marked.
+FeatureMarks mark_features(const Mesh& m, const Topology& T, const DecimateOptions& opt) {
+  const int nv = m.num_vertices();
+  FeatureMarks fm;
+  if (opt.preserve_features) {
+    FeatureOptions fo;
+    fo.angle_deg = opt.feature_angle_deg;
+    fo.corner_angle_deg = opt.corner_angle_deg;
+    fo.entity_borders = opt.entity_borders;
+    Features f = detect_features(m, T, fo);
+    fm.edge = std::move(f.edge_feature);
+    fm.vertex = std::move(f.vertex_feature);
+    fm.corner = std::move(f.vertex_corner);
+    return fm;
+  }
+  fm.edge.assign(T.num_edges(), 0);
+  fm.vertex.assign(nv, 0);
+  fm.corner.assign(nv, 0);
+  std::vector<int> valence(nv, 0);
+  for (int e = 0; e < T.num_edges(); ++e)
+    if (T.edge_faces[e].size() == 1) {
+      fm.edge[e] = 1;
+      for (int j = 0; j < 2; ++j) fm.vertex[T.E(e, j)] = 1, ++valence[T.E(e, j)];
+    }
+  // A vertex where boundary loops touch (valence != 2) must stay.
+  for (int v = 0; v < nv; ++v) fm.corner[v] = fm.vertex[v] && valence[v] != 2;
+  return fm;
+}
+
+/// Refuses input the collapse machinery cannot keep manifold: repeated corners, edges with more
+/// than two faces, inconsistent orientation, vertices whose faces form several fans.
+void check_manifold(const Mesh& m, const Topology& T) {
+  const std::string where = "decimate";
+  for (int f = 0; f < m.num_faces(); ++f) {
+    for (int j = 0; j < 3; ++j)
+      if (m.F(f, j) < 0 || m.F(f, j) >= m.num_vertices())
+        throw InputError(where, "face " + std::to_string(f) + " references vertex " + std::to_string(m.F(f, j)) +
+                                    " out of range");
+    if (m.F(f, 0) == m.F(f, 1) || m.F(f, 1) == m.F(f, 2) || m.F(f, 0) == m.F(f, 2))
+      throw InputError(where, "face " + std::to_string(f) + " repeats a vertex");
+  }
+  for (int e = 0; e < T.num_edges(); ++e) {
+    const auto& ef = T.edge_faces[e];
+    const std::string name = "edge (" + std::to_string(T.E(e, 0)) + "," + std::to_string(T.E(e, 1)) + ")";
+    if (ef.size() > 2)
+      throw InputError(where, name + " is shared by " + std::to_string(ef.size()) + " faces: non-manifold");
+    if (ef.size() == 2) {
+      auto dir = [&](int f) {  // +1 if f uses the edge as E0 -> E1
+        for (int j = 0; j < 3; ++j)
+          if (m.F(f, j) == T.E(e, 0) && m.F(f, (j + 1) % 3) == T.E(e, 1)) return 1;
+        return -1;
+      };
+      if (dir(ef[0]) == dir(ef[1]))
+        throw InputError(where, name + ": faces " + std::to_string(ef[0]) + " and " + std::to_string(ef[1]) +
+                                    " have inconsistent orientation");
+    }
+  }
+  // Vertex manifoldness: the faces around v, linked through shared edges, form one fan.
+  std::vector<int> comp;
+  for (int v = 0; v < m.num_vertices(); ++v) {
+    auto [b, e] = T.faces_of(v);
+    const int k = static_cast<int>(e - b);
+    if (k == 0) continue;
+    comp.assign(k, -1);
+    std::vector<int> stack{0};
+    comp[0] = 0;
+    int seen = 1;
+    while (!stack.empty()) {
+      const int i = stack.back();
+      stack.pop_back();
+      for (int j = 0; j < k; ++j) {
+        if (comp[j] >= 0) continue;
+        int shared = 0;
+        for (int x = 0; x < 3; ++x)
+          for (int y = 0; y < 3; ++y) shared += m.F(b[i], x) == m.F(b[j], y);
+        if (shared >= 2) comp[j] = 0, ++seen, stack.push_back(j);
+      }
+    }
+    if (seen != k)
+      throw InputError(where, "vertex " + std::to_string(v) + " joins several fans of faces: non-manifold");
+  }
+}
+
+double min_angle_cos_max(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  // Largest cosine among the three angles = cosine of the smallest angle.
+  auto cosang = [](const Eigen::Vector3d& o, const Eigen::Vector3d& p, const Eigen::Vector3d& q) {
+    const Eigen::Vector3d u = p - o, v = q - o;
+    const double d = u.norm() * v.norm();
+    return d > 0 ? u.dot(v) / d : 1.0;
+  };
+  return std::max({cosang(a, b, c), cosang(b, c, a), cosang(c, a, b)});
+}
+
+struct Entry {
+  double cost;
+  int a, b;
+  unsigned va, vb;
+  bool operator>(const Entry& o) const {
+    if (cost != o.cost) return cost > o.cost;
+    if (a != o.a) return a > o.a;
+    return b > o.b;
+  }
+};
+
+enum class Reason { ok, link, feature, boundary, valence, fold, sliver, flatten };
+
+struct Plan {
+  Reason reason = Reason::ok;
+  int s = -1, r = -1;
+  Eigen::Vector3d p;
+  double cost = 0;
+};
+
+/// The working mesh: simple vertex -> faces adjacency, faces keep their ids while alive.
+struct Decimator {
+  const DecimateOptions& opt;
+  std::vector<Eigen::Vector3d> X;
+  std::vector<std::array<int, 3>> F;
+  std::vector<char> face_alive, v_alive, vfeat, vcorner, vbnd;
+  std::vector<std::vector<int>> vf;
+  std::vector<unsigned> ver;
+  std::vector<Quadric> Q;
+  std::unordered_set<std::uint64_t> feat, rejected;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
+  int faces_alive = 0;
+  double cos_fold = 0, cos_min_angle = 0;
+
+  // tracking of fine vertices
+  bool track = false;
+  std::vector<std::vector<int>> face_pts;
+  std::vector<int> pt_face;
+  std::vector<Eigen::Vector3d> pt_bary;
+
+  CoarseMap* map = nullptr;
+  RejectCounts* rej = nullptr;
+  double t_flatten = 0, t_track = 0;
+
+  explicit Decimator(const DecimateOptions& o) : opt(o) {}
+
+  void neighbors(int v, std::vector<int>& out) const {
+    out.clear();
+    for (int f : vf[v])
+      for (int x : F[f])
+        if (x != v && std::find(out.begin(), out.end(), x) == out.end()) out.push_back(x);
+  }
+  int faces_on_edge(int a, int b) const {
+    int n = 0;
+    for (int f : vf[a]) n += (F[f][0] == b || F[f][1] == b || F[f][2] == b);
+    return n;
+  }
+
+  Plan plan(int a, int b) const {
+    Plan P;
+    Quadric q = Q[a];
+    q += Q[b];
+    const double len2 = (X[a] - X[b]).squaredNorm();
+    const double tie = 1e-6 * q.trace() * len2;  // shortest edge first where Q vanishes (flat parts)
+    auto snapped = [&](int s, int r) {
+      P.s = s, P.r = r, P.p = X[s];
+      P.cost = q.eval(P.p) + tie;
+    };
+    const bool fa = vfeat[a], fb = vfeat[b], ca = vcorner[a], cb = vcorner[b];
+    const bool ef = feat.count(edge_key(a, b)) > 0;
+    if (ef) {
+      if (faces_on_edge(a, b) < 2) {
+        P.reason = Reason::boundary;
+        snapped(a, b);
+        return P;
+      }
+      if (ca && cb) P.reason = Reason::feature;
+      if (ca) snapped(a, b);
+      else if (cb) snapped(b, a);
+      else {
+        const double qa = q.eval(X[a]), qb = q.eval(X[b]);
+        if (qa < qb || (qa == qb && a < b)) snapped(a, b);
+        else snapped(b, a);
+      }
+      return P;
+    }
+    if (fa && fb) {
+      P.reason = Reason::feature;
+      snapped(a, b);
+      return P;
+    }
+    if (fa) return snapped(a, b), P;
+    if (fb) return snapped(b, a), P;
+    P.s = std::min(a, b), P.r = std::max(a, b);
+    const Eigen::Vector3d mid = 0.5 * (X[a] + X[b]);
+    const double lambda = 1e-3 * q.trace() + 1e-300;
+    P.p = quadric_minimiser(q, mid, lambda);
+    P.cost = q.eval(P.p) + lambda * (P.p - mid).squaredNorm() + tie;
+    return P;
+  }
+
+  void push(int a, int b) {
+    rejected.erase(edge_key(a, b));
+    const Plan P = plan(a, b);
+    heap.push({P.cost, std::min(a, b), std::max(a, b), ver[std::min(a, b)], ver[std::max(a, b)]});
+  }
+
+  Reason check_and_collapse(const Plan& P);
+};
+
+Reason Decimator::check_and_collapse(const Plan& P) {
+  const int s = P.s, r = P.r;
+  // Patch: faces around s or r.
+  std::vector<int> pf = vf[s];
+  for (int f : vf[r])
+    if (std::find(pf.begin(), pf.end(), f) == pf.end()) pf.push_back(f);
+  std::vector<int> edge_faces, wings;
+  for (int f : vf[s])
+    for (int x : F[f])
+      if (x == r) edge_faces.push_back(f);
+  if (edge_faces.size() != 2) return Reason::boundary;
+  for (int f : edge_faces)
+    for (int x : F[f])
+      if (x != s && x != r) wings.push_back(x);
+  if (wings[0] == wings[1]) return Reason::link;
+  // Link condition: the only common neighbours are the two wing vertices.
+  std::vector<int> ns, nr;
+  neighbors(s, ns);
+  neighbors(r, nr);
+  int common = 0;
+  for (int x : ns)
+    if (std::find(nr.begin(), nr.end(), x) != nr.end()) ++common;
+  if (common != 2) return Reason::link;
+  // Valence and size.
+  const int new_deg = static_cast<int>(vf[s].size() + vf[r].size()) - 4;
+  if (new_deg < (vbnd[s] ? 1 : 3)) return Reason::valence;
+  for (int c : wings)
+    if (static_cast<int>(vf[c].size()) - 1 < (vbnd[c] ? 1 : 3)) return Reason::valence;
+  if (faces_alive - 2 < 4 || pf.size() > 60 || ns.size() + nr.size() > 200) return Reason::valence;
+  // Feature curves must not shrink into a two-edge loop.
+  if (feat.count(edge_key(s, r)))
+    for (int c : wings)
+      if (feat.count(edge_key(s, c)) && feat.count(edge_key(r, c))) return Reason::feature;
+  // 3D checks on the faces that survive: no fold-over, no sliver.
+  double worst_old = -1;  // largest cos(min angle) of the pre patch
+  for (int f : pf) worst_old = std::max(worst_old, min_angle_cos_max(X[F[f][0]], X[F[f][1]], X[F[f][2]]));
+  for (int f : pf) {
+    const auto& t = F[f];
+    if (t[0] == r || t[1] == r || t[2] == r)
+      if (t[0] == s || t[1] == s || t[2] == s) continue;
+    Eigen::Vector3d xo[3], xn[3];
+    for (int j = 0; j < 3; ++j) {
+      xo[j] = X[t[j]];
+      xn[j] = (t[j] == s || t[j] == r) ? P.p : X[t[j]];
+    }
+    const Eigen::Vector3d no = (xo[1] - xo[0]).cross(xo[2] - xo[0]);
+    const Eigen::Vector3d nn = (xn[1] - xn[0]).cross(xn[2] - xn[0]);
+    const double lno = no.norm(), lnn = nn.norm();
+    const double scale = (xn[1] - xn[0]).squaredNorm() + (xn[2] - xn[0]).squaredNorm() + (xn[2] - xn[1]).squaredNorm();
+    if (!(lnn > 1e-12 * scale)) return Reason::sliver;
+    if (lno > 0 && no.dot(nn) < cos_fold * lno * lnn) return Reason::fold;
+    const double cmin = min_angle_cos_max(xn[0], xn[1], xn[2]);
+    if (cmin > cos_min_angle && cmin > worst_old) return Reason::sliver;
+  }
+
+  // Joint flattening and record.
+  std::vector<int> loc{s, r};
+  CollapsePatch patch;
+  PatchFlattening flat;
+  if (track || map) {
+    const auto t0 = Clock::now();
+    auto local = [&](int v) {
+      for (size_t i = 0; i < loc.size(); ++i)
+        if (loc[i] == v) return static_cast<int>(i);
+      loc.push_back(v);
+      return static_cast<int>(loc.size() - 1);
+    };
+    for (int f : pf) {
+      std::array<int, 3> t{local(F[f][0]), local(F[f][1]), local(F[f][2])};
+      patch.faces.push_back(t);
+      patch.removed.push_back(std::find(edge_faces.begin(), edge_faces.end(), f) != edge_faces.end());
+    }
+    for (int v : loc) patch.X.push_back(X[v]);
+    patch.p = P.p;
+    patch.post_reuses_survivor_uv = vbnd[s];
+    patch.s_interior = !vbnd[s];
+    patch.r_interior = !vbnd[r];
+    FlattenOptions fo;
+    fo.min_quality = opt.uv_min_quality;
+    flat = flatten_collapse(patch, fo);
+    t_flatten += seconds_since(t0);
+    if (!flat.ok) return Reason::flatten;
+  }
+
+  // --- accepted: record, move tracked points, update connectivity ---
+  if (map) {
+    map->rec_uv.insert(map->rec_uv.end(), flat.uv.begin(), flat.uv.end());
+    map->rec_uv_start.push_back(static_cast<int>(map->rec_uv.size()));
+    for (size_t k = 0; k < pf.size(); ++k) {
+      map->rec_face.push_back(pf[k]);
+      const auto& t = patch.faces[k];
+      map->rec_face_local.push_back({static_cast<std::uint8_t>(t[0]), static_cast<std::uint8_t>(t[1]),
+                                     static_cast<std::uint8_t>(t[2])});
+      map->rec_face_removed.push_back(patch.removed[k]);
+    }
+    map->rec_face_start.push_back(static_cast<int>(map->rec_face.size()));
+    map->rec_post_reuses.push_back(patch.post_reuses_survivor_uv);
+    map->rec_edge.push_back({s, r});
+  }
+  if (track) {
+    const auto t0 = Clock::now();
+    std::vector<std::array<int, 3>> post_tris;
+    std::vector<int> post_ids;
+    for (size_t k = 0; k < pf.size(); ++k)
+      if (!patch.removed[k]) post_tris.push_back(post_triangle(patch, static_cast<int>(k))), post_ids.push_back(pf[k]);
+    std::vector<int> moving;
+    for (size_t k = 0; k < pf.size(); ++k) {
+      for (int pt : face_pts[pf[k]]) {
+        const auto& t = patch.faces[k];
+        const Eigen::Vector3d& b = pt_bary[pt];
+        const Eigen::Vector2d q = b[0] * flat.uv[t[0]] + b[1] * flat.uv[t[1]] + b[2] * flat.uv[t[2]];
+        Eigen::Vector3d nb;
+        const int hit = locate_uv(flat.uv.data(), post_tris.data(), static_cast<int>(post_tris.size()), q, nb, nullptr);
+        pt_face[pt] = post_ids[hit];
+        pt_bary[pt] = nb;
+        moving.push_back(pt);
+      }
+      face_pts[pf[k]].clear();
+    }
+    for (int pt : moving) face_pts[pt_face[pt]].push_back(pt);
+    t_track += seconds_since(t0);
+  }
+  // Feature edges of r move to s.
+  for (int x : nr) {
+    const auto key = edge_key(r, x);
+    if (feat.erase(key) && x != s) feat.insert(edge_key(s, x));
+  }
+  for (int f : vf[r]) {
+    auto& t = F[f];
+    if (t[0] == s || t[1] == s || t[2] == s) {
+      face_alive[f] = 0;
+      --faces_alive;
+      for (int x : t)
+        if (x != r) vf[x].erase(std::find(vf[x].begin(), vf[x].end(), f));
+    } else {
+      for (int& x : t)
+        if (x == r) x = s;
+      vf[s].push_back(f);
+    }
+  }
+  vf[r].clear();
+  v_alive[r] = 0;
+  X[s] = P.p;
+  Q[s] += Q[r];
+  ++ver[s];
+  // New costs around s; edges refused near the change get another chance.
+  neighbors(s, ns);
+  for (int x : ns) push(s, x);
+  std::vector<int> nx;
+  for (int x : ns) {
+    neighbors(x, nx);
+    for (int y : nx)
+      if (y != s && rejected.count(edge_key(x, y))) push(x, y);
+  }
+  return Reason::ok;
+}
+
+}  // namespace
+
+DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
+  const auto t0 = Clock::now();
+  DecimateResult R;
+  const int nv = fine.num_vertices(), nf = fine.num_faces();
+  if (nf < 4) throw InputError("decimate", "the mesh has " + std::to_string(nf) + " faces, at least 4 are needed");
+  if (opt.target_faces <= 0 && !(opt.target_ratio > 0 && opt.target_ratio <= 1))
+    throw UsageError("decimate: target_ratio must be in (0,1], got " + std::to_string(opt.target_ratio));
+  R.target_faces = opt.target_faces > 0 ? opt.target_faces
+                                        : std::max(4, static_cast<int>(std::lround(opt.target_ratio * nf)));
+  const Topology T = build_topology(fine.F, nv);
+  check_manifold(fine, T);
+  const FeatureMarks fm = mark_features(fine, T, opt);
+
+  Decimator D(opt);
+  D.cos_fold = std::cos(opt.max_normal_change_deg * std::numbers::pi / 180);
+  D.cos_min_angle = std::cos(opt.min_angle_deg * std::numbers::pi / 180);
+  D.X.resize(nv);
+  for (int v = 0; v < nv; ++v) D.X[v] = fine.V.row(v).transpose();
+  D.F.resize(nf);
+  for (int f = 0; f < nf; ++f) D.F[f] = {fine.F(f, 0), fine.F(f, 1), fine.F(f, 2)};
+  D.face_alive.assign(nf, 1);
+  D.faces_alive = nf;
+  D.v_alive.assign(nv, 1);
+  D.vfeat = fm.vertex;
+  D.vcorner = fm.corner;
+  D.vbnd.assign(nv, 0);
+  D.ver.assign(nv, 0);
+  D.vf.resize(nv);
+  for (int f = 0; f < nf; ++f)
+    for (int x : D.F[f]) D.vf[x].push_back(f);
+  for (int e = 0; e < T.num_edges(); ++e) {
+    if (T.edge_faces[e].size() == 1) D.vbnd[T.E(e, 0)] = D.vbnd[T.E(e, 1)] = 1;
+    if (fm.edge[e]) D.feat.insert(edge_key(T.E(e, 0), T.E(e, 1))), ++R.feature_edges;
+  }
+  for (int v = 0; v < nv; ++v) R.corners += fm.corner[v];
+  // Quadrics: area-weighted face planes, plus planes through feature edges perpendicular to
+  // their faces so that feature curves cost what they deviate.
+  D.Q.assign(nv, Quadric{});
+  for (int f = 0; f < nf; ++f) {
+    const auto& t = D.F[f];
+    const Eigen::Vector3d n2 = (D.X[t[1]] - D.X[t[0]]).cross(D.X[t[2]] - D.X[t[0]]);
+    const double area = 0.5 * n2.norm();
+    if (!(area > 0)) continue;
+    const Eigen::Vector3d n = n2.normalized();
+    const Quadric q = plane_quadric(D.X[t[0]], n, area);
+    for (int x : t) D.Q[x] += q;
+    for (int j = 0; j < 3; ++j) {
+      const int a = t[j], b = t[(j + 1) % 3];
+      if (!D.feat.count(edge_key(a, b))) continue;
+      const Eigen::Vector3d e = D.X[b] - D.X[a];
+      const Eigen::Vector3d m = e.cross(n);
+      if (m.norm() == 0) continue;
+      const Quadric qe = plane_quadric(D.X[a], m.normalized(), e.squaredNorm());
+      D.Q[a] += qe, D.Q[b] += qe;
+    }
+  }
+  D.rej = &R.rejected;
+  if (opt.build_map) {
+    D.map = &R.map;
+    D.track = true;
+    R.map.rec_uv_start.push_back(0);
+    R.map.rec_face_start.push_back(0);
+    D.face_pts.resize(nf);
+    D.pt_face.resize(nv);
+    D.pt_bary.resize(nv);
+    for (int v = 0; v < nv; ++v) {
+      const int f = D.vf[v].empty() ? -1 : D.vf[v][0];
+      if (f < 0) throw InputError("decimate", "vertex " + std::to_string(v) + " is used by no face");
+      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      for (int j = 0; j < 3; ++j)
+        if (D.F[f][j] == v) b[j] = 1;
+      D.pt_face[v] = f;
+      D.pt_bary[v] = b;
+      D.face_pts[f].push_back(v);
+    }
+  } else {
+    for (int v = 0; v < nv; ++v)
+      if (D.vf[v].empty()) throw InputError("decimate", "vertex " + std::to_string(v) + " is used by no face");
+  }
+  for (int e = 0; e < T.num_edges(); ++e) D.push(T.E(e, 0), T.E(e, 1));
+
+  while (D.faces_alive > R.target_faces && !D.heap.empty()) {
+    const Entry en = D.heap.top();
+    D.heap.pop();
+    if (!D.v_alive[en.a] || !D.v_alive[en.b] || D.ver[en.a] != en.va || D.ver[en.b] != en.vb) continue;
+    const Plan P = D.plan(en.a, en.b);
+    Reason why = P.reason;
+    if (why == Reason::ok) why = D.check_and_collapse(P);
+    switch (why) {
+      case Reason::ok: ++R.collapses; continue;
+      case Reason::link: ++R.rejected.link; break;
+      case Reason::feature: ++R.rejected.feature; break;
+      case Reason::boundary: ++R.rejected.boundary; break;
+      case Reason::valence: ++R.rejected.valence; break;
+      case Reason::fold: ++R.rejected.fold; break;
+      case Reason::sliver: ++R.rejected.sliver; break;
+      case Reason::flatten: ++R.rejected.flatten; break;
+    }
+    D.rejected.insert(edge_key(en.a, en.b));
+  }
+
+  // --- compact the coarse mesh ---
+  std::vector<int> vmap(nv, -1);
+  int ncv = 0;
+  for (int v = 0; v < nv; ++v)
+    if (D.v_alive[v] && !D.vf[v].empty()) vmap[v] = ncv++, R.coarse_vertex_origin.push_back(v);
+  R.coarse.V.resize(ncv, 3);
+  for (int v = 0; v < nv; ++v)
+    if (vmap[v] >= 0) R.coarse.V.row(vmap[v]) = D.X[v].transpose();
+  std::vector<int> fmap(nf, -1), fids;
+  for (int f = 0; f < nf; ++f)
+    if (D.face_alive[f]) fmap[f] = static_cast<int>(fids.size()), fids.push_back(f);
+  const int ncf = static_cast<int>(fids.size());
+  R.coarse.F.resize(ncf, 3);
+  if (fine.face_entity.size()) R.coarse.face_entity.resize(ncf);
+  for (int i = 0; i < ncf; ++i) {
+    for (int j = 0; j < 3; ++j) R.coarse.F(i, j) = vmap[D.F[fids[i]][j]];
+    if (fine.face_entity.size()) R.coarse.face_entity[i] = fine.face_entity[fids[i]];
+  }
+  R.coarse.physicals = fine.physicals;
+  R.reached_target = ncf <= R.target_faces;
+  R.message = (R.reached_target ? "reached " : "target not reached: stopped at ") + std::to_string(ncf) +
+              " faces (target " + std::to_string(R.target_faces) + ", input " + std::to_string(nf) + ") after " +
+              std::to_string(R.collapses) + " collapses; " + std::to_string(R.rejected.total()) +
+              " refused collapses (link " + std::to_string(R.rejected.link) + ", feature " +
+              std::to_string(R.rejected.feature) + ", boundary " + std::to_string(R.rejected.boundary) +
+              ", valence " + std::to_string(R.rejected.valence) + ", fold " + std::to_string(R.rejected.fold) +
+              ", sliver " + std::to_string(R.rejected.sliver) + ", flatten " + std::to_string(R.rejected.flatten) + ")";
+
+  if (opt.build_map) {
+    CoarseMap& M = R.map;
+    M.fine_V = fine.V;
+    M.fine_F = fine.F;
+    M.coarse_V = R.coarse.V;
+    M.coarse_F = R.coarse.F;
+    M.coarse_face_id = fids;
+    M.face_to_coarse = fmap;
+    M.face_rec_start.assign(nf + 1, 0);
+    for (int f : M.rec_face) ++M.face_rec_start[f + 1];
+    for (int f = 0; f < nf; ++f) M.face_rec_start[f + 1] += M.face_rec_start[f];
+    M.face_rec.resize(M.rec_face.size());
+    std::vector<int> fill(M.face_rec_start.begin(), M.face_rec_start.end() - 1);
+    for (int c = 0; c < M.num_collapses(); ++c)
+      for (int k = M.rec_face_start[c]; k < M.rec_face_start[c + 1]; ++k) M.face_rec[fill[M.rec_face[k]]++] = c;
+    M.vertex_coarse_face.resize(nv);
+    M.vertex_coarse_bary.resize(nv, 3);
+    M.cf_start.assign(ncf + 1, 0);
+    for (int v = 0; v < nv; ++v) {
+      M.vertex_coarse_face[v] = fmap[D.pt_face[v]];
+      M.vertex_coarse_bary.row(v) = D.pt_bary[v].transpose();
+      ++M.cf_start[M.vertex_coarse_face[v] + 1];
+    }
+    for (int f = 0; f < ncf; ++f) M.cf_start[f + 1] += M.cf_start[f];
+    M.cf_vertices.resize(nv);
+    std::vector<int> cfill(M.cf_start.begin(), M.cf_start.end() - 1);
+    for (int v = 0; v < nv; ++v) M.cf_vertices[cfill[M.vertex_coarse_face[v]]++] = v;
+  }
+  R.seconds_flatten = D.t_flatten;
+  R.seconds_tracking = D.t_track;
+  R.seconds_total = seconds_since(t0);
+  return R;
+}
+
+}  // namespace hocurve

@@ -1,0 +1,54 @@
+// Quadric-error edge-collapse decimation with feature preservation, building the bijective
+// coarse <-> fine map (successive self-parameterization) as it goes.
+#pragma once
+#include "engine/coarse/multigrid_map.hpp"
+#include "engine/core/mesh.hpp"
+
+#include <string>
+
+namespace hocurve {
+
+struct DecimateOptions {
+  int target_faces = 0;             ///< stop at this many faces (> 0), else use target_ratio
+  double target_ratio = 0.04;       ///< fraction of the input face count, used when target_faces <= 0
+  bool preserve_features = true;    ///< feature vertices slide only along their curve, corners stay
+  double feature_angle_deg = 35.0;  ///< dihedral angle above which an edge is a feature
+  double corner_angle_deg = 35.0;   ///< a feature vertex is a corner when its curve turns more than this
+  bool entity_borders = true;       ///< edges between different face entities are features
+  double min_angle_deg = 10.0;      ///< new triangles must keep this smallest 3D angle (or not get worse)
+  double max_normal_change_deg = 60.0;  ///< a face's normal may turn at most this much in one collapse
+  double uv_min_quality = 0.01;     ///< smallest accepted UV triangle quality in the flattened patches
+  bool build_map = true;            ///< record the per-collapse maps and track the fine vertices
+};
+
+/// Collapses that were attempted and refused, by reason (one edge can be refused several times).
+struct RejectCounts {
+  long long link = 0;       ///< link condition: the collapse would change the topology
+  long long feature = 0;    ///< would move a corner, or a feature vertex off its curve
+  long long boundary = 0;   ///< boundary edge (kept: open boundaries are not coarsened)
+  long long valence = 0;    ///< a vertex would drop below 3 faces, or the patch is too large
+  long long fold = 0;       ///< a face normal would turn more than max_normal_change_deg (3D fold-over)
+  long long sliver = 0;     ///< a new triangle would be thinner than min_angle_deg
+  long long flatten = 0;    ///< the joint flattening flips, degenerates or overlaps a triangle
+  long long total() const { return link + feature + boundary + valence + fold + sliver + flatten; }
+};
+
+struct DecimateResult {
+  Mesh coarse;                      ///< keeps face entities and physical groups of the input
+  CoarseMap map;                    ///< empty when build_map is false
+  std::vector<int> coarse_vertex_origin;  ///< coarse vertex -> the fine vertex it continues
+  int target_faces = 0;
+  bool reached_target = false;
+  std::string message;              ///< one line: what was reached, and why it stopped
+  long long collapses = 0;
+  RejectCounts rejected;
+  int feature_edges = 0, corners = 0;
+  double seconds_total = 0, seconds_flatten = 0, seconds_tracking = 0;
+};
+
+/// Decimates a closed or open, edge- and vertex-manifold triangle mesh by quadric-error edge
+/// collapses down to the target face count (or as close as the safety checks allow), and builds
+/// the map between the input and the result. Throws InputError on non-manifold input.
+DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt = {});
+
+}  // namespace hocurve

@@ -1,0 +1,81 @@
+// The bijective map between a dense surface and its decimated (coarse) version, as the
+// composition of one piecewise-linear map per edge collapse (successive self-parameterization).
+#pragma once
+#include "engine/core/mesh.hpp"
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace hocurve {
+
+/// A point on a triangle mesh: face, barycentric coordinates (>= 0, sum 1) and 3D position.
+struct SurfacePoint {
+  int face = -1;
+  Eigen::Vector3d bary = Eigen::Vector3d::Zero();
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+};
+
+/// Per-collapse records plus the fine-vertex -> coarse-point table. Face ids inside the records
+/// are fine face ids: a face keeps its id while it survives, so the coarse faces are the
+/// surviving fine ids (coarse_face_id) renumbered.
+struct CoarseMap {
+  Eigen::MatrixXd fine_V, coarse_V;
+  Eigen::MatrixXi fine_F, coarse_F;
+  std::vector<int> coarse_face_id;   ///< coarse face -> fine face id it continues
+  std::vector<int> face_to_coarse;   ///< fine face id -> coarse face, -1 if collapsed away
+
+  // --- collapse records, in collapse order (CSR) ---
+  std::vector<int> rec_uv_start;     ///< record c: uv[rec_uv_start[c] ..] (n pre + 1 post survivor)
+  std::vector<Eigen::Vector2d> rec_uv;
+  std::vector<int> rec_face_start;   ///< record c: faces rec_face_start[c] .. [c+1]
+  std::vector<int> rec_face;         ///< fine face id
+  std::vector<std::array<std::uint8_t, 3>> rec_face_local;  ///< pre triangle, local indices
+  std::vector<char> rec_face_removed;
+  std::vector<char> rec_post_reuses; ///< per record: post survivor uses local 0's UV
+  std::vector<std::array<int, 2>> rec_edge;  ///< per record: (survivor, absorbed) fine vertex ids
+
+  /// Fine face id -> the records whose pre patch contains it, increasing (CSR).
+  std::vector<int> face_rec_start, face_rec;
+
+  // --- every fine vertex on the coarse mesh ---
+  std::vector<int> vertex_coarse_face;  ///< per fine vertex
+  Eigen::MatrixXd vertex_coarse_bary;   ///< #V_fine x 3
+  /// Coarse face -> fine vertices mapped into it (CSR), for gathering MLS fit points.
+  std::vector<int> cf_start, cf_vertices;
+
+  int num_collapses() const { return static_cast<int>(rec_edge.size()); }
+  /// The fine vertices whose image lies in coarse face f.
+  std::pair<const int*, const int*> fine_vertices_in(int coarse_face) const {
+    return {cf_vertices.data() + cf_start[coarse_face], cf_vertices.data() + cf_start[coarse_face + 1]};
+  }
+};
+
+/// Counters of one batch of queries: point location fell outside every candidate triangle by
+/// more than the tolerance and was clamped to the nearest one.
+struct MapQueryStats {
+  long long steps = 0, clamped = 0;
+  double worst_outside = 0;  ///< most negative barycentric seen before clamping (as a positive number)
+};
+
+/// Maps a point of the fine mesh (fine face, barycentric) onto the coarse mesh by replaying the
+/// collapses that touch it in order.
+SurfacePoint fine_to_coarse(const CoarseMap& map, int fine_face, const Eigen::Vector3d& bary,
+                            MapQueryStats* stats = nullptr);
+
+/// Maps a point of the coarse mesh (coarse face, barycentric) onto the dense surface by replaying
+/// the collapses in reverse order (post layout -> pre layout). Returns the fine face, its
+/// barycentrics and the position on the dense surface.
+SurfacePoint coarse_to_fine(const CoarseMap& map, int coarse_face, const Eigen::Vector3d& bary,
+                            MapQueryStats* stats = nullptr);
+
+/// Position on the coarse mesh of every fine vertex (#V_fine x 3).
+Eigen::MatrixXd fine_vertices_on_coarse(const CoarseMap& map);
+
+/// Locates q among the UV triangles tris (local indices into uv): the triangle whose smallest
+/// barycentric is largest; negatives beyond -tol are clamped and counted. Returns the index.
+int locate_uv(const Eigen::Vector2d* uv, const std::array<int, 3>* tris, int ntris, const Eigen::Vector2d& q,
+              Eigen::Vector3d& bary, MapQueryStats* stats, double tol = 1e-12);
+
+}  // namespace hocurve

@@ -1,0 +1,145 @@
+// Decimation: targets, topology (manifold, closed, Euler characteristic), fold-overs, features,
+// refused input, scale invariance.
+#include "coarse/coarse_test_meshes.hpp"
+#include "engine/coarse/decimate.hpp"
+#include "engine/core/error.hpp"
+#include "engine/core/topology.hpp"
+
+#include <doctest/doctest.h>
+#include <cmath>
+#include <set>
+
+using namespace hocurve;
+
+namespace {
+
+/// Independent topology check: every edge has exactly two faces using it in opposite
+/// directions, every vertex is used, returns the Euler characteristic.
+int check_closed_manifold(const Mesh& m) {
+  const Topology T = build_topology(m.F, m.num_vertices());
+  for (int e = 0; e < T.num_edges(); ++e) {
+    REQUIRE(T.edge_faces[e].size() == 2);
+    int dir = 0;
+    for (int f : T.edge_faces[e])
+      for (int j = 0; j < 3; ++j)
+        if (m.F(f, j) == T.E(e, 0) && m.F(f, (j + 1) % 3) == T.E(e, 1)) ++dir;
+    REQUIRE(dir == 1);
+  }
+  for (int v = 0; v < m.num_vertices(); ++v) REQUIRE(T.vf_start[v + 1] > T.vf_start[v]);
+  return m.num_vertices() - T.num_edges() + m.num_faces();
+}
+
+Eigen::Vector3d face_normal(const Mesh& m, int f) {
+  const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+  return (b - a).cross(c - a);
+}
+
+}  // namespace
+
+TEST_CASE("icosphere 5120 -> 4%: closed, genus 0, no fold-over") {
+  const Mesh fine = coarse_test::icosphere(4);
+  DecimateOptions opt;
+  opt.target_ratio = 0.04;
+  const DecimateResult R = decimate(fine, opt);
+  MESSAGE(R.message);
+  CHECK(R.reached_target);
+  CHECK(R.coarse.num_faces() <= R.target_faces);
+  CHECK(R.coarse.num_faces() >= R.target_faces - 2);
+  CHECK(check_closed_manifold(R.coarse) == 2);
+  // Fold-over on a convex shape: every face faces outward, and vertices stay near the sphere.
+  for (int f = 0; f < R.coarse.num_faces(); ++f) {
+    const Eigen::Vector3d c =
+        (R.coarse.V.row(R.coarse.F(f, 0)) + R.coarse.V.row(R.coarse.F(f, 1)) + R.coarse.V.row(R.coarse.F(f, 2))) / 3;
+    CHECK(face_normal(R.coarse, f).normalized().dot(c.normalized()) > 0.5);
+  }
+  for (int v = 0; v < R.coarse.num_vertices(); ++v) CHECK(std::abs(R.coarse.V.row(v).norm() - 1) < 0.05);
+}
+
+TEST_CASE("torus 4096 -> 4%: closed, genus 1") {
+  const Mesh fine = coarse_test::torus(64, 32, 1.0, 0.4);
+  const DecimateResult R = decimate(fine, {});
+  MESSAGE(R.message);
+  CHECK(R.reached_target);
+  CHECK(check_closed_manifold(R.coarse) == 0);
+  // No fold-over: each face normal agrees with the exact torus normal at its centroid.
+  for (int f = 0; f < R.coarse.num_faces(); ++f) {
+    const Eigen::Vector3d c =
+        (R.coarse.V.row(R.coarse.F(f, 0)) + R.coarse.V.row(R.coarse.F(f, 1)) + R.coarse.V.row(R.coarse.F(f, 2))) / 3;
+    const Eigen::Vector3d ring = Eigen::Vector3d(c.x(), c.y(), 0).normalized();
+    const Eigen::Vector3d n = (c - ring).normalized();
+    CHECK(face_normal(R.coarse, f).normalized().dot(n) > 0.3);
+  }
+}
+
+TEST_CASE("cube: corners stay, edges (rims) stay straight, faces stay on one side") {
+  const Mesh fine = coarse_test::cube(12);  // 1728 faces
+  DecimateOptions opt;
+  opt.target_faces = 60;
+  const DecimateResult R = decimate(fine, opt);
+  MESSAGE(R.message);
+  CHECK(R.corners == 8);
+  CHECK(R.feature_edges == 12 * 12);
+  CHECK(check_closed_manifold(R.coarse) == 2);
+  CHECK(R.coarse.num_faces() <= 60);
+  int corners = 0;
+  for (int v = 0; v < R.coarse.num_vertices(); ++v) {
+    const Eigen::Vector3d x = R.coarse.V.row(v);
+    int on = 0;
+    for (int k = 0; k < 3; ++k) on += std::abs(std::abs(x[k]) - 1) < 1e-12;
+    CHECK(on >= 1);  // on the cube's surface
+    corners += on == 3;
+  }
+  CHECK(corners == 8);
+  // Every face lies in one side of the cube (no face cuts across an edge) and keeps its entity.
+  for (int f = 0; f < R.coarse.num_faces(); ++f) {
+    const int ent = R.coarse.face_entity[f];
+    const int d = (ent - 1) / 2;
+    const double side = (ent - 1) % 2 ? 1.0 : -1.0;
+    for (int j = 0; j < 3; ++j) CHECK(std::abs(R.coarse.V(R.coarse.F(f, j), d) - side) < 1e-12);
+    Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+    axis[d] = side;
+    CHECK(face_normal(R.coarse, f).normalized().dot(axis) > 1 - 1e-9);
+  }
+}
+
+TEST_CASE("an unreachable target is reported, not hidden") {
+  const Mesh fine = coarse_test::cube(4);  // 192 faces, 8 corners: cannot reach 4 faces
+  DecimateOptions opt;
+  opt.target_faces = 4;
+  const DecimateResult R = decimate(fine, opt);
+  CHECK_FALSE(R.reached_target);
+  CHECK(R.coarse.num_faces() >= 12);
+  CHECK(R.message.find("not reached") != std::string::npos);
+  CHECK(R.rejected.total() > 0);
+  CHECK(check_closed_manifold(R.coarse) == 2);
+}
+
+TEST_CASE("non-manifold input is refused with InputError") {
+  Mesh m = coarse_test::icosphere(1);
+  Mesh bad = m;
+  // Add a fin on edge of face 0: a third face on that edge.
+  bad.V.conservativeResize(m.num_vertices() + 1, 3);
+  bad.V.row(m.num_vertices()) << 3, 3, 3;
+  bad.F.conservativeResize(m.num_faces() + 1, 3);
+  bad.F.row(m.num_faces()) << m.F(0, 0), m.F(0, 1), m.num_vertices();
+  CHECK_THROWS_AS(decimate(bad, {}), InputError);
+  Mesh flipped = m;
+  std::swap(flipped.F(3, 1), flipped.F(3, 2));
+  CHECK_THROWS_AS(decimate(flipped, {}), InputError);
+}
+
+TEST_CASE("scale invariance: powers-of-two scalings give the same connectivity") {
+  const Mesh fine = coarse_test::torus(40, 20, 1.0, 0.35);
+  DecimateOptions opt;
+  opt.target_ratio = 0.1;
+  opt.build_map = false;
+  const DecimateResult R1 = decimate(fine, opt);
+  for (double s : {std::ldexp(1.0, -20), std::ldexp(1.0, 20)}) {
+    Mesh scaled = fine;
+    scaled.V *= s;
+    const DecimateResult Rs = decimate(scaled, opt);
+    REQUIRE(Rs.coarse.num_faces() == R1.coarse.num_faces());
+    CHECK(Rs.coarse.F == R1.coarse.F);
+    CHECK((Rs.coarse.V / s - R1.coarse.V).cwiseAbs().maxCoeff() < 1e-12);
+  }
+}

@@ -1,0 +1,217 @@
+// The bijective coarse <-> fine map: round trips both ways, valid barycentrics, injectivity,
+// consistency of the eager vertex table with the replayed queries, per-collapse flattenings.
+#include "coarse/coarse_test_meshes.hpp"
+#include "engine/coarse/decimate.hpp"
+#include "engine/coarse/flatten.hpp"
+#include "engine/core/error.hpp"
+
+#include <doctest/doctest.h>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <random>
+
+#if __has_include("engine/io/read_mesh.hpp")
+#include "engine/io/read_mesh.hpp"
+#endif
+
+using namespace hocurve;
+
+namespace {
+
+double diagonal(const Eigen::MatrixXd& V) { return (V.colwise().maxCoeff() - V.colwise().minCoeff()).norm(); }
+
+Eigen::Vector3d at(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f, const Eigen::Vector3d& b) {
+  return b[0] * V.row(F(f, 0)).transpose() + b[1] * V.row(F(f, 1)).transpose() + b[2] * V.row(F(f, 2)).transpose();
+}
+
+void check_bary(const Eigen::Vector3d& b) {
+  CHECK(b.minCoeff() >= -1e-12);
+  CHECK(std::abs(b.sum() - 1) < 1e-12);
+}
+
+/// The whole battery of map checks on one decimation.
+void check_map(const Mesh& fine, const DecimateResult& R, int samples) {
+  const CoarseMap& M = R.map;
+  const double diag = diagonal(fine.V);
+  const int nv = fine.num_vertices();
+  REQUIRE(static_cast<int>(M.vertex_coarse_face.size()) == nv);
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<double> U(0, 1);
+  auto random_bary = [&] {
+    double a = U(rng), b = U(rng);
+    if (a + b > 1) a = 1 - a, b = 1 - b;
+    return Eigen::Vector3d(a, b, 1 - a - b);
+  };
+
+  // 1. Every fine vertex has a valid image; fine -> coarse -> fine returns the vertex.
+  double worst_vertex = 0;
+  MapQueryStats st;
+  for (int v = 0; v < nv; ++v) {
+    const int cf = M.vertex_coarse_face[v];
+    REQUIRE(cf >= 0);
+    REQUIRE(cf < R.coarse.num_faces());
+    const Eigen::Vector3d b = M.vertex_coarse_bary.row(v).transpose();
+    check_bary(b);
+    const SurfacePoint back = coarse_to_fine(M, cf, b, &st);
+    worst_vertex = std::max(worst_vertex, (back.position - fine.V.row(v).transpose()).norm());
+  }
+  MESSAGE("vertex round trip, worst / diag = " << worst_vertex / diag << ", clamped " << st.clamped << " of "
+                                                << st.steps << " steps");
+  CHECK(worst_vertex <= 1e-9 * diag);
+
+  // 2. The replayed query agrees with the table built during decimation.
+  double worst_agree = 0;
+  for (int v = 0; v < nv; v += 7) {
+    const int f = [&] {
+      for (int g = 0; g < fine.num_faces(); ++g)
+        for (int j = 0; j < 3; ++j)
+          if (fine.F(g, j) == v) return g;
+      return -1;
+    }();
+    if (v > 7 * 60) break;  // a few, the face search above is linear
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    for (int j = 0; j < 3; ++j) b[j] = fine.F(f, j) == v;
+    const SurfacePoint c = fine_to_coarse(M, f, b);
+    const Eigen::Vector3d table = at(R.coarse.V, R.coarse.F, M.vertex_coarse_face[v], M.vertex_coarse_bary.row(v));
+    worst_agree = std::max(worst_agree, (c.position - table).norm());
+  }
+  CHECK(worst_agree <= 1e-9 * diag);
+
+  // 3. Random fine points: fine -> coarse -> fine.
+  std::vector<Eigen::Vector3d> images;
+  double worst_fine = 0;
+  std::uniform_int_distribution<int> Ff(0, fine.num_faces() - 1);
+  for (int i = 0; i < samples; ++i) {
+    const int f = Ff(rng);
+    const Eigen::Vector3d b = random_bary();
+    const SurfacePoint c = fine_to_coarse(M, f, b);
+    check_bary(c.bary);
+    REQUIRE(c.face >= 0);
+    images.push_back(c.position);
+    const SurfacePoint back = coarse_to_fine(M, c.face, c.bary);
+    check_bary(back.bary);
+    worst_fine = std::max(worst_fine, (back.position - at(fine.V, fine.F, f, b)).norm());
+  }
+  MESSAGE("fine->coarse->fine worst / diag = " << worst_fine / diag);
+  CHECK(worst_fine <= 1e-9 * diag);
+
+  // 4. Random coarse points: coarse -> fine -> coarse.
+  double worst_coarse = 0;
+  std::uniform_int_distribution<int> Fc(0, R.coarse.num_faces() - 1);
+  for (int i = 0; i < samples; ++i) {
+    const int f = Fc(rng);
+    const Eigen::Vector3d b = random_bary();
+    const SurfacePoint d = coarse_to_fine(M, f, b);
+    REQUIRE(d.face >= 0);
+    REQUIRE(d.face < fine.num_faces());
+    const SurfacePoint c = fine_to_coarse(M, d.face, d.bary);
+    worst_coarse = std::max(worst_coarse, (c.position - at(R.coarse.V, R.coarse.F, f, b)).norm());
+  }
+  MESSAGE("coarse->fine->coarse worst / diag = " << worst_coarse / diag);
+  CHECK(worst_coarse <= 1e-9 * diag);
+
+  // 5. Injectivity on the fine vertices: distinct vertices have distinct coarse images.
+  Eigen::MatrixXd P = fine_vertices_on_coarse(M);
+  std::vector<int> order(nv);
+  for (int v = 0; v < nv; ++v) order[v] = v;
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return P(a, 0) < P(b, 0); });
+  const double eps = 1e-10 * diag;
+  int collisions = 0;
+  for (int i = 0; i < nv; ++i)
+    for (int j = i + 1; j < nv && P(order[j], 0) - P(order[i], 0) <= eps; ++j)
+      collisions += (P.row(order[i]) - P.row(order[j])).norm() <= eps;
+  CHECK(collisions == 0);
+
+  // 6. The per-coarse-face lists partition the fine vertices.
+  REQUIRE(static_cast<int>(M.cf_start.size()) == R.coarse.num_faces() + 1);
+  std::vector<int> seen(nv, 0);
+  for (int f = 0; f < R.coarse.num_faces(); ++f)
+    for (auto [b, e] = M.fine_vertices_in(f); b != e; ++b) {
+      CHECK(M.vertex_coarse_face[*b] == f);
+      ++seen[*b];
+    }
+  CHECK(std::count(seen.begin(), seen.end(), 1) == nv);
+
+  // 7. Per collapse: the stored pre and post UV layouts have no flipped triangle.
+  int flipped = 0;
+  for (int c = 0; c < M.num_collapses(); ++c) {
+    const Eigen::Vector2d* uv = M.rec_uv.data() + M.rec_uv_start[c];
+    const int n = M.rec_uv_start[c + 1] - M.rec_uv_start[c] - 1;
+    const int post = M.rec_post_reuses[c] ? 0 : n;
+    for (int k = M.rec_face_start[c]; k < M.rec_face_start[c + 1]; ++k) {
+      std::array<int, 3> t{M.rec_face_local[k][0], M.rec_face_local[k][1], M.rec_face_local[k][2]};
+      auto area = [&](const std::array<int, 3>& q) {
+        const Eigen::Vector2d a = uv[q[1]] - uv[q[0]], b = uv[q[2]] - uv[q[0]];
+        return a[0] * b[1] - a[1] * b[0];
+      };
+      flipped += area(t) <= 0;
+      if (M.rec_face_removed[k]) continue;
+      for (int& x : t)
+        if (x == 0 || x == 1) x = post;
+      flipped += area(t) <= 0;
+    }
+  }
+  CHECK(flipped == 0);
+}
+
+}  // namespace
+
+TEST_CASE("map on an icosphere (5120 -> 4%)") {
+  const Mesh fine = coarse_test::icosphere(4);
+  const DecimateResult R = decimate(fine, {});
+  MESSAGE(R.message);
+  CHECK(R.map.num_collapses() == R.collapses);
+  check_map(fine, R, 2000);
+  // Coverage for fitting: every coarse face receives some fine vertices on average.
+  CHECK(fine.num_vertices() / R.coarse.num_faces() >= 1);
+}
+
+TEST_CASE("map on a torus (4096 -> 4%)") {
+  const Mesh fine = coarse_test::torus(64, 32, 1.0, 0.4);
+  const DecimateResult R = decimate(fine, {});
+  MESSAGE(R.message);
+  check_map(fine, R, 2000);
+}
+
+TEST_CASE("map on a cube with features (1728 -> 60)") {
+  const Mesh fine = coarse_test::cube(12);
+  DecimateOptions opt;
+  opt.target_faces = 60;
+  const DecimateResult R = decimate(fine, opt);
+  check_map(fine, R, 1000);
+  // Points on a cube edge: the flattening does not constrain feature curves, so their images
+  // may leave the coarse curve; measured, not asserted (part 2 fits curves separately).
+  int on_edge = 0, kept = 0;
+  for (int v = 0; v < fine.num_vertices(); ++v) {
+    const Eigen::Vector3d x = fine.V.row(v);
+    int on = 0;
+    for (int k = 0; k < 3; ++k) on += std::abs(std::abs(x[k]) - 1) < 1e-12;
+    if (on < 2) continue;
+    const Eigen::Vector3d y = at(R.coarse.V, R.coarse.F, R.map.vertex_coarse_face[v], R.map.vertex_coarse_bary.row(v));
+    int on2 = 0;
+    for (int k = 0; k < 3; ++k) on2 += std::abs(std::abs(y[k]) - 1) < 1e-9;
+    ++on_edge;
+    kept += on2 >= 2;
+  }
+  MESSAGE("fine cube-edge vertices mapped onto a coarse cube edge: " << kept << " of " << on_edge);
+}
+
+TEST_CASE("query arguments out of range throw InputError") {
+  const Mesh fine = coarse_test::icosphere(2);
+  const DecimateResult R = decimate(fine, {});
+  CHECK_THROWS_AS(coarse_to_fine(R.map, R.coarse.num_faces(), Eigen::Vector3d(1, 0, 0)), InputError);
+  CHECK_THROWS_AS(fine_to_coarse(R.map, -1, Eigen::Vector3d(1, 0, 0)), InputError);
+}
+
+#if __has_include("engine/io/read_mesh.hpp")
+TEST_CASE("bunny_closed -> 4%") {
+  const std::string path = std::string(HOCURVE_SHARED_DIR) + "/meshes/bunny_closed.obj";
+  if (!std::filesystem::exists(path)) return;
+  const Mesh fine = read_mesh_file(path).mesh;
+  const DecimateResult R = decimate(fine, {});
+  MESSAGE(R.message);
+  CHECK(R.coarse.num_faces() <= R.target_faces + 20);
+  check_map(fine, R, 1000);
+}
+#endif
