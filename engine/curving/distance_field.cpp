@@ -6,6 +6,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <numbers>
 #include <queue>
 #include <utility>
 #include <vector>
@@ -41,11 +42,78 @@ double triangle_update(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const
   return t;
 }
 
+/// A virtual triangle (C, x, y) for an obtuse corner C: two mesh vertices unfolded into the
+/// plane of the corner's face (frame: C = 0, A = (|CA|, 0), B above), with every ray from C
+/// between them crossing the unfolded strip. (Kimmel & Sethian's unfolding, keeping each
+/// strip triangle met on the way, not only the final split of the corner.)
+struct VirtualPair {
+  int x = -1, y = -1;
+  Eigen::Vector2d X, Y;
+};
+
+/// 2D frame of corner c of face f: A on +x, B in the upper half-plane.
+void corner_frame(const Mesh& mesh, int f, int k, Eigen::Vector2d& A, Eigen::Vector2d& B) {
+  const Eigen::Vector3d c = mesh.V.row(mesh.F(f, k)), a = mesh.V.row(mesh.F(f, (k + 1) % 3)),
+                        b = mesh.V.row(mesh.F(f, (k + 2) % 3));
+  const double la = (a - c).norm();
+  const Eigen::Vector3d ex = (a - c) / la;
+  const double bx = (b - c).dot(ex);
+  A = {la, 0};
+  B = {bx, std::sqrt(std::max(0.0, (b - c).squaredNorm() - bx * bx))};
+}
+
+/// Unfolds the faces across the edge opposite the obtuse corner k of face f, toward the section
+/// of directions that splits the corner into two non-obtuse angles, and appends the virtual
+/// triangles met on the way to `out`. Stops in that section, at a boundary or non-manifold
+/// edge, or after a few steps.
+void unfold_obtuse(const Mesh& mesh, const Topology& T, int f, int k, std::vector<VirtualPair>& out) {
+  Eigen::Vector2d A, B;
+  corner_frame(mesh, f, k, A, B);
+  const double theta = std::atan2(B.y(), B.x());
+  const double lo = theta - std::numbers::pi / 2, hi = std::numbers::pi / 2;  // the acute section
+  double cone_lo = 0, cone_hi = theta;  // rays from C that stayed inside the strip so far
+  int p = mesh.F(f, (k + 1) % 3), q = mesh.F(f, (k + 2) % 3), face = f;
+  Eigen::Vector2d P = A, Q = B;
+  for (int step = 0; step < 12; ++step) {
+    int e = -1;
+    for (int j = 0; j < 3; ++j) {
+      const int u = mesh.F(face, j), w = mesh.F(face, (j + 1) % 3);
+      if ((u == p && w == q) || (u == q && w == p)) e = T.FE(face, j);
+    }
+    if (e < 0 || T.edge_faces[e].size() != 2) return;
+    const int g = T.edge_faces[e][0] == face ? T.edge_faces[e][1] : T.edge_faces[e][0];
+    int r = -1;
+    for (int j = 0; j < 3; ++j)
+      if (mesh.F(g, j) != p && mesh.F(g, j) != q) r = mesh.F(g, j);
+    if (r < 0) return;
+    // Place r across PQ (away from C) with its true distances to p and q.
+    const Eigen::Vector3d vp = mesh.V.row(p), vq = mesh.V.row(q), vr = mesh.V.row(r);
+    const double lpq = (vq - vp).norm();
+    const Eigen::Vector2d d = Q - P;
+    if (!(lpq > 0) || !(d.norm() > 0)) return;
+    const Eigen::Vector2d ux = d / d.norm(), uy(-ux.y(), ux.x());
+    const double x = (vr - vp).dot(vq - vp) / lpq;
+    const double y = std::sqrt(std::max(0.0, (vr - vp).squaredNorm() - x * x));
+    const double side = (-P).dot(uy) > 0 ? -1.0 : 1.0;  // C = origin lies on the other side
+    const Eigen::Vector2d R = P + x * ux + side * y * uy;
+    const double phi = std::atan2(R.y(), R.x());
+    if (phi > cone_lo && phi < cone_hi) {
+      out.push_back({p, r, P, R});
+      out.push_back({r, q, R, Q});
+    }
+    if (phi >= lo && phi <= hi) return;
+    if (phi < lo) p = r, P = R, cone_lo = std::max(cone_lo, phi);  // the section lies toward CB
+    else q = r, Q = R, cone_hi = std::min(cone_hi, phi);
+    if (cone_lo >= cone_hi) return;
+    face = g;
+  }
+}
+
 }  // namespace
 
 DistanceField feature_distance(const Mesh& mesh, const Topology& T, const Features& features,
                                const DistanceOptions& opt) {
-  const int nv = mesh.num_vertices();
+  const int nv = mesh.num_vertices(), nf = mesh.num_faces();
   DistanceField D;
   D.distance = Eigen::VectorXd::Constant(nv, kInf);
   using Item = std::pair<double, int>;  // (distance, vertex): ties pop the lower vertex first
@@ -56,9 +124,59 @@ DistanceField feature_distance(const Mesh& mesh, const Topology& T, const Featur
       heap.push({0.0, v});
       ++D.sources;
     }
-  std::vector<char> done(nv, 0);
   auto pos = [&](int v) -> Eigen::Vector3d { return mesh.V.row(v).transpose(); };
-  auto relax = [&](int x, double t) {
+
+  // Obtuse corners get a virtual vertex by unfolding; `dependents` lists, per virtual vertex,
+  // the corners that use it, so they are recomputed when it is accepted.
+  std::vector<VirtualPair> pairs;
+  std::vector<int> pair_start;  // corner 3f+k -> its virtual triangles (CSR)
+  std::vector<std::vector<int>> dependents;
+  if (opt.fast_marching) {
+    pair_start.assign(3 * static_cast<size_t>(nf) + 1, 0);
+    dependents.resize(nv);
+    for (int f = 0; f < nf; ++f)
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector3d c = pos(mesh.F(f, k)), a = pos(mesh.F(f, (k + 1) % 3)), b = pos(mesh.F(f, (k + 2) % 3));
+        const size_t first = pairs.size();
+        if ((a - c).dot(b - c) < 0) unfold_obtuse(mesh, T, f, k, pairs);
+        pair_start[3 * f + k + 1] = static_cast<int>(pairs.size());
+        for (size_t i = first; i < pairs.size(); ++i)
+          for (int w : {pairs[i].x, pairs[i].y})
+            if (dependents[w].empty() || dependents[w].back() != mesh.F(f, k)) dependents[w].push_back(mesh.F(f, k));
+      }
+  }
+
+  std::vector<char> done(nv, 0);
+  // Best value of x from its accepted neighbours: edges, then the triangles around x (and the
+  // virtual triangles of obtuse corners). Accepted values are final, so recomputing is exact.
+  auto recompute = [&](int x) {
+    double best = D.distance[x];
+    auto [eb, ee] = T.edges_of(x);
+    for (const int* it = eb; it != ee; ++it) {
+      const int n = T.other(*it, x);
+      if (done[n]) best = std::min(best, D.distance[n] + (pos(n) - pos(x)).norm());
+    }
+    if (!opt.fast_marching) return best;
+    auto [fb, fe] = T.faces_of(x);
+    for (const int* it = fb; it != fe; ++it) {
+      const int f = *it;
+      int k = 0;
+      while (k < 3 && mesh.F(f, k) != x) ++k;
+      if (k == 3) continue;
+      const int a = mesh.F(f, (k + 1) % 3), b = mesh.F(f, (k + 2) % 3);
+      if (done[a] && done[b]) best = std::min(best, triangle_update(pos(a), pos(b), pos(x), D.distance[a], D.distance[b]));
+      for (int i = pair_start[3 * f + k]; i < pair_start[3 * f + k + 1]; ++i) {
+        const VirtualPair& vp = pairs[i];
+        if (!done[vp.x] || !done[vp.y]) continue;
+        const Eigen::Vector3d X3(vp.X.x(), vp.X.y(), 0), Y3(vp.Y.x(), vp.Y.y(), 0);
+        best = std::min(best, triangle_update(X3, Y3, Eigen::Vector3d::Zero(), D.distance[vp.x], D.distance[vp.y]));
+      }
+    }
+    return best;
+  };
+  auto refresh = [&](int x) {
+    if (done[x]) return;
+    const double t = recompute(x);
     if (t < D.distance[x]) {
       D.distance[x] = t;
       heap.push({t, x});
@@ -69,26 +187,10 @@ DistanceField feature_distance(const Mesh& mesh, const Topology& T, const Featur
     heap.pop();
     if (done[v] || d > D.distance[v]) continue;  // stale entry
     done[v] = 1;
-    // Edge updates (Dijkstra part; also the fallback of fast marching).
     auto [eb, ee] = T.edges_of(v);
-    for (const int* it = eb; it != ee; ++it) {
-      const int x = T.other(*it, v);
-      if (!done[x]) relax(x, d + (pos(x) - pos(v)).norm());
-    }
-    if (!opt.fast_marching) continue;
-    // Triangle updates: each face around v with one other accepted vertex updates the third.
-    auto [fb, fe] = T.faces_of(v);
-    for (const int* it = fb; it != fe; ++it) {
-      const int f = *it;
-      int j = 0;
-      while (j < 3 && mesh.F(f, j) != v) ++j;
-      if (j == 3) continue;
-      const int a = mesh.F(f, (j + 1) % 3), b = mesh.F(f, (j + 2) % 3);
-      if (done[a] && !done[b])
-        relax(b, triangle_update(pos(v), pos(a), pos(b), d, D.distance[a]));
-      else if (done[b] && !done[a])
-        relax(a, triangle_update(pos(v), pos(b), pos(a), d, D.distance[b]));
-    }
+    for (const int* it = eb; it != ee; ++it) refresh(T.other(*it, v));
+    if (opt.fast_marching)
+      for (int x : dependents[v]) refresh(x);
   }
   for (int v = 0; v < nv; ++v) {
     if (std::isfinite(D.distance[v]))
