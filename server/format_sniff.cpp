@@ -85,21 +85,23 @@ SniffResult sniff_mesh(const std::string& head, std::uint64_t size, const std::s
       return r;
     }
     if (!ascii_solid && !mostly_text(head.substr(0, std::min<size_t>(head.size(), 4096)))) {
-      bool stl_hint = ends_with_ci(name_hint, ".stl");
-      if (stl_hint || size >= 84 + 50ull * n) {
-        if (n == 0) {
-          r.refusal = "binary STL declares 0 facets";
-        } else if (size < 84 + 50ull * n) {
-          r.refusal = "binary STL declares " + std::to_string(n) + " facets (" + std::to_string(84 + 50ull * n) +
-                      " bytes) but the upload has " + std::to_string(size) + " bytes (truncated?)";
-        } else {
-          // Trailing bytes after the declared facets happen in real CAD exports; the reader decides.
-          r.format = "stl-binary";
-          r.extension = ".stl";
-          return r;
-        }
+      // Binary data that is no other format: judge it as a binary STL when its count is plausible.
+      const std::uint64_t declared = 84 + 50ull * n;
+      const bool stl_hint = ends_with_ci(name_hint, ".stl");
+      const bool whole_facets = (size - 84) % 50 == 0;
+      const bool near = declared <= 4 * size + 4096;  // truncated, not random bytes
+      if (n > 0 && size > declared) return {"stl-binary", ".stl", ""};  // trailing bytes: the reader decides
+      if (stl_hint || whole_facets || near) {
         r.format = "stl-binary";
         r.extension = ".stl";
+        if (n == 0)
+          r.refusal = "binary STL declares 0 facets";
+        else if (whole_facets)
+          r.refusal = "binary STL declares " + std::to_string(n) + " facets but its " + std::to_string(size) +
+                      " bytes hold " + std::to_string((size - 84) / 50);
+        else
+          r.refusal = "binary STL declares " + std::to_string(n) + " facets (" + std::to_string(declared) +
+                      " bytes) but the upload has " + std::to_string(size) + " bytes (truncated?)";
         return r;
       }
     }

@@ -65,7 +65,7 @@ bool JobRunner::enqueue(const std::string& id, bool force, bool front) {
   if (!force && (int)queue_.size() >= config_.max_queue) return false;
   if (front) queue_.push_front(id);
   else queue_.push_back(id);
-  cv_.notify_one();
+  cv_.notify_all();  // the janitor waits on cv_ too: notify_one could wake only it
   return true;
 }
 
@@ -338,6 +338,12 @@ void JobRunner::run_job(const std::string& id) {
     running_[id] = 0;
   }
 
+  if (!killed) {
+    // cancel() and shutdown() kill the process group themselves; the loop may see the exit first.
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (cancel_requests_.count(id)) outcome.kind = ProcessOutcome::kCancelled, killed = true;
+    else if (kill_all_) outcome.kind = ProcessOutcome::kInterrupted, killed = true;
+  }
   if (!killed) {
     if (WIFEXITED(status)) outcome = {ProcessOutcome::kExited, WEXITSTATUS(status), ""};
     else if (WIFSIGNALED(status)) outcome = {ProcessOutcome::kSignaled, WTERMSIG(status), ""};

@@ -1,0 +1,30 @@
+# Shared settings of the curl client scripts (sourced). HOCURVE_URL: server base URL;
+# HOCURVE_TOKEN: optional bearer token. Errors are RFC 9457 problem+json, printed to stderr.
+HOCURVE_URL="${HOCURVE_URL:-http://127.0.0.1:8080}"
+AUTH=()
+if [ -n "${HOCURVE_TOKEN:-}" ]; then AUTH=(-H "Authorization: Bearer ${HOCURVE_TOKEN}"); fi
+CURL=(curl -sS --connect-timeout 10 --max-time 600 "${AUTH[@]}")
+
+# json_field NAME: the first string or number value of "NAME" in the JSON on stdin (flat fields only).
+json_field() {
+  grep -o "\"$1\":[[:space:]]*\(\"[^\"]*\"\|[-0-9.eE+]*\)" | head -n1 | sed -e "s/^\"$1\":[[:space:]]*//" -e 's/^"//' -e 's/"$//'
+}
+
+# json_string NAME: the first string value of "NAME" (skips numbers, e.g. a problem's numeric status).
+json_string() {
+  grep -o "\"$1\":[[:space:]]*\"[^\"]*\"" | head -n1 | sed -e "s/^\"$1\":[[:space:]]*\"//" -e 's/"$//'
+}
+
+# request OUTFILE CURL_ARGS...: runs curl, writes the body to OUTFILE, prints the HTTP status.
+request() {
+  local out="$1"; shift
+  "${CURL[@]}" -o "$out" -w '%{http_code}' "$@"
+}
+
+# fail_with_problem FILE STATUS: shows a problem document and exits 1.
+fail_with_problem() {
+  echo "error: HTTP $2" >&2
+  cat "$1" >&2
+  echo >&2
+  exit 1
+}

@@ -1,0 +1,393 @@
+#!/usr/bin/python3
+"""hocurved end-to-end: every endpoint, bad input, idempotency, pagination, auth, and both clients,
+against a real daemon on an ephemeral loopback port. Usage: test_server_api.py BUILD_DIR"""
+import http.client
+import json
+import os
+import re
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+BUILD_DIR = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.environ.get("HOCURVE_BUILD_DIR", "build"))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "server"))
+import daemon as D  # noqa: E402
+from hocurve_client import Client, ProblemError  # noqa: E402
+
+SPHERE = os.path.join(D.SHARED_DIR, "meshes", "sphere_surf_gmsh.stl")
+TORUS = os.path.join(D.SHARED_DIR, "meshes", "torus.obj")
+
+
+def data(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+MESH_SPHERE = data(SPHERE)
+MESH_TORUS = data(TORUS)
+
+
+def raw(url, method, path, body=None, headers=None):
+    """One HTTP exchange with http.client (full control over headers); returns (status, headers, body)."""
+    host, port = url.split("//")[1].split(":")
+    c = http.client.HTTPConnection(host, int(port), timeout=30)
+    try:
+        c.request(method, path, body=body, headers=headers or {})
+        r = c.getresponse()
+        return r.status, {k.lower(): v for k, v in r.getheaders()}, r.read()
+    finally:
+        c.close()
+
+
+def problem(testcase, resp, status, code):
+    st, h, body = resp
+    testcase.assertEqual(st, status, body[:300])
+    testcase.assertEqual(h.get("content-type"), "application/problem+json")
+    p = json.loads(body)
+    testcase.assertEqual(p["status"], status)
+    testcase.assertEqual(p["code"], code, p)
+    testcase.assertTrue(p["type"].endswith("/" + code))
+    testcase.assertTrue(p["detail"])
+    return p
+
+
+def binary_stl(triangles, declared=None):
+    data = bytearray(b"binary stl from test".ljust(80, b" "))
+    data += struct.pack("<I", len(triangles) if declared is None else declared)
+    for t in triangles:
+        data += struct.pack("<3f", 0, 0, 1)
+        for v in t:
+            data += struct.pack("<3f", *v)
+        data += b"\0\0"
+    return bytes(data)
+
+
+class ServerApi(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.mkdtemp(prefix="hocurved-api-")
+        cls.real = D.real_worker(BUILD_DIR)
+        cls.worker = cls.real or D.fake_worker(cls.tmp, "fake_ok.py", D.FAKE_OK)
+        if not cls.real:
+            print("NOTE: %s/hocurve not built: using a fake worker" % BUILD_DIR, file=sys.stderr)
+        cls.d = D.Daemon(BUILD_DIR, worker=cls.worker, args=["--workers", "2", "--max-upload-mb", "1"]).start()
+        cls.c = Client(cls.d.url, timeout=30)
+
+    @classmethod
+    def tearDownClass(cls):
+        rc = cls.d.stop()
+        assert rc == 0, rc
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    def submit_wait(self, mesh=SPHERE, options=None, **kw):
+        job = self.c.submit(mesh, options or {"order": 2}, **kw)
+        return self.c.wait(job["id"], timeout=60)
+
+    # -- probes and documents -------------------------------------------------------------
+    def test_health_ready_info(self):
+        st, h, body = raw(self.d.url, "GET", "/healthz")
+        self.assertEqual(st, 200)
+        self.assertRegex(h["x-request-id"], r"^[0-9a-f]{16}$")
+        st, h, _ = raw(self.d.url, "GET", "/readyz", headers={"X-Request-Id": "abc-123"})
+        self.assertEqual((st, h["x-request-id"]), (200, "abc-123"))
+        info = self.c.info()
+        self.assertEqual(info["orders"], [2, 3, 4, 5, 6])
+        self.assertEqual(info["limits"]["max_upload_bytes"], 1 << 20)
+        self.assertIn("msh41", info["output_formats"])
+
+    def test_openapi_document(self):
+        doc = json.loads(raw(self.d.url, "GET", "/v1/openapi.json")[2])
+        self.assertTrue(doc["openapi"].startswith("3.1"))
+        for path in ["/v1/jobs", "/v1/jobs/{id}", "/v1/jobs/{id}/result", "/v1/jobs/{id}/stats", "/v1/curve",
+                     "/v1/info", "/healthz", "/readyz", "/metrics", "/v1/openapi.json"]:
+            self.assertIn(path, doc["paths"])
+        # Every problem type the server can emit is documented.
+        src = open(os.path.join(D.SOURCE_DIR, "server", "problem.cpp")).read()
+        slugs = set(re.findall(r'\{"([a-z-]+)", "', src))
+        text = json.dumps(doc)
+        for slug in slugs:
+            self.assertIn(slug, text, "problem type %s not in openapi.yaml" % slug)
+
+    def test_metrics_text_format(self):
+        self.submit_wait()
+        st, h, body = raw(self.d.url, "GET", "/metrics")
+        self.assertEqual(st, 200)
+        self.assertTrue(h["content-type"].startswith("text/plain; version=0.0.4"))
+        text = body.decode()
+        self.assertTrue(text.endswith("\n"))
+        declared = {}
+        for line in text.splitlines():
+            m = re.match(r"# TYPE (\S+) (counter|gauge|histogram)$", line)
+            if m:
+                declared[m.group(1)] = m.group(2)
+                continue
+            if line.startswith("# HELP"):
+                continue
+            m = re.match(r'^([a-zA-Z_:][a-zA-Z0-9_:]*)(\{(?:[a-z_]+="(?:[^"\\]|\\.)*",?)*\})? (\S+)$', line)
+            self.assertTrue(m, "bad sample line: %r" % line)
+            name = m.group(1)
+            base = re.sub(r"_(bucket|sum|count)$", "", name)
+            self.assertTrue(name in declared or base in declared, "no TYPE for %s" % name)
+            float(m.group(3).replace("+Inf", "inf"))
+        self.assertRegex(text, r'hocurve_jobs_finished_total\{state="succeeded"\} [1-9]')
+        self.assertRegex(text, r'hocurve_upload_bytes_total [1-9]')
+        buckets = [float(x) for x in re.findall(r'hocurve_job_duration_seconds_bucket\{le="[^"]+"\} (\d+)', text)]
+        self.assertEqual(buckets, sorted(buckets))  # cumulative
+        self.assertRegex(text, r'hocurve_http_requests_total\{method="POST",route="/v1/jobs",code="202"\} [1-9]')
+
+    # -- the happy path --------------------------------------------------------------------
+    def test_submit_poll_download_stats(self):
+        st, h, body = raw(self.d.url, "POST", "/v1/jobs?order=3&nodes=equispaced", MESH_SPHERE,
+                          {"Content-Type": "application/octet-stream"})
+        self.assertEqual(st, 202, body)
+        job = json.loads(body)
+        self.assertEqual(h["location"], "/v1/jobs/" + job["id"])
+        self.assertIn("retry-after", h)
+        self.assertEqual(job["status"], "queued")
+        self.assertEqual(job["options"], {"mode": "curve", "order": 3, "nodes": "equispaced", "format": "msh41",
+                                          "binary": False})
+        self.assertEqual(job["input"]["format"], "stl-ascii")
+        self.assertEqual(job["input"]["bytes"], os.path.getsize(SPHERE))
+        done = self.c.wait(job["id"], timeout=60)
+        self.assertEqual(done["status"], "succeeded", done["error"])
+        self.assertTrue(done["done"])
+        self.assertEqual(done["progress"]["fraction"], 1.0)
+        for k in ("created", "started", "finished"):
+            self.assertRegex(done[k], r"^\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z$")
+        self.assertLessEqual(done["created"], done["started"])
+        self.assertLessEqual(done["started"], done["finished"])
+        st, h, msh = raw(self.d.url, "GET", "/v1/jobs/%s/result" % job["id"])
+        self.assertEqual(st, 200)
+        self.assertIn('filename="%s.msh"' % job["id"], h["content-disposition"])
+        self.assertEqual(int(h["content-length"]), len(msh))
+        self.assertEqual(done["result"]["bytes"], len(msh))
+        self.assertTrue(msh.startswith(b"$MeshFormat\n4.1"))
+        stats = self.c.stats(job["id"])
+        self.assertEqual(stats, done["stats"])
+        if self.real:
+            self.check_msh_order(msh, 3)
+
+    def check_msh_order(self, msh, order):
+        """Independent read-back with Gmsh's Python API: triangles of the requested order only."""
+        path = os.path.join(self.tmp, "readback.msh")
+        with open(path, "wb") as f:
+            f.write(msh)
+        code = ("import gmsh,sys\ngmsh.initialize(); gmsh.option.setNumber('General.Terminal',0)\n"
+                "gmsh.open(sys.argv[1]); t,_,_=gmsh.model.mesh.getElements(2)\n"
+                "print(sorted(set(gmsh.model.mesh.getElementProperties(x)[2] for x in t)))\n")
+        out = subprocess.run(["/usr/bin/python3", "-c", code, path], capture_output=True, text=True, timeout=60)
+        self.assertEqual(out.stdout.strip(), "[%d]" % order, out.stderr)
+
+    def test_multipart_submission_like_curl_F(self):
+        job = self.c.submit(TORUS, {"order": 2, "format": "msh22"}, multipart=True)
+        self.assertEqual(job["input"]["client_filename"], "torus.obj")
+        self.assertEqual(job["input"]["format"], "obj")
+        self.assertEqual(job["options"]["format"], "msh22")
+        done = self.c.wait(job["id"], timeout=60)
+        self.assertEqual(done["status"], "succeeded", done["error"])
+        msh = raw(self.d.url, "GET", "/v1/jobs/%s/result" % job["id"])[2]
+        self.assertTrue(msh.startswith(b"$MeshFormat\n2.2"))
+
+    def test_sync_curve(self):
+        st, h, body = raw(self.d.url, "POST", "/v1/curve?order=2", MESH_SPHERE,
+                          {"Content-Type": "model/stl"})
+        self.assertEqual(st, 200, body[:300])
+        self.assertIn("attachment", h["content-disposition"])
+        self.assertTrue(body.startswith(b"$MeshFormat"))
+        # Sync jobs are not listed and are gone afterwards.
+        self.assertNotIn(h["x-job-id"], [j["id"] for j in self.c.list()])
+        problem(self, raw(self.d.url, "GET", "/v1/jobs/" + h["x-job-id"]), 404, "not-found")
+        problem(self, raw(self.d.url, "POST", "/v1/curve", os.urandom(3000), {"Content-Type": "application/octet-stream"}),
+                415, "unsupported-media-type")
+
+    # -- idempotency and pagination -------------------------------------------------------------
+    def test_idempotency_key(self):
+        key = "key-" + os.urandom(6).hex()
+        a = self.c.submit(SPHERE, {"order": 2}, idempotency_key=key)
+        st, h, body = raw(self.d.url, "POST", "/v1/jobs?order=2", MESH_SPHERE,
+                          {"Content-Type": "application/octet-stream", "Idempotency-Key": key})
+        self.assertEqual(st, 202)
+        self.assertEqual(json.loads(body)["id"], a["id"])
+        self.assertEqual(h.get("idempotent-replayed"), "true")
+        p = problem(self, raw(self.d.url, "POST", "/v1/jobs?order=3", MESH_SPHERE,
+                              {"Content-Type": "application/octet-stream", "Idempotency-Key": key}),
+                    422, "idempotency-key-reused")
+        self.assertIn(a["id"], p["detail"])
+        problem(self, raw(self.d.url, "POST", "/v1/jobs?order=2", MESH_TORUS,
+                          {"Content-Type": "application/octet-stream", "Idempotency-Key": key}),
+                422, "idempotency-key-reused")
+
+    def test_pagination(self):
+        ids = {self.c.submit(SPHERE, {"order": 2}, retries=20)["id"] for _ in range(5)}
+        seen, token, pages = [], "", 0
+        while pages < 100:
+            q = "/v1/jobs?page_size=2" + ("&page_token=" + token if token else "")
+            page = json.loads(raw(self.d.url, "GET", q)[2])
+            self.assertLessEqual(len(page["jobs"]), 2)
+            seen += [j["id"] for j in page["jobs"]]
+            pages += 1
+            token = page["next_page_token"]
+            if not token:
+                break
+        self.assertEqual(len(seen), len(set(seen)))
+        self.assertTrue(ids <= set(seen))
+        self.assertEqual(seen, sorted(seen, reverse=True))  # newest first
+        all_jobs = json.loads(raw(self.d.url, "GET", "/v1/jobs?page_size=100000")[2])
+        self.assertEqual([j["id"] for j in all_jobs["jobs"]], seen)  # coerced to the maximum, not rejected
+        problem(self, raw(self.d.url, "GET", "/v1/jobs?page_token=zzz"), 400, "invalid-page-token")
+        problem(self, raw(self.d.url, "GET", "/v1/jobs?page_size=-1"), 400, "invalid-request")
+        problem(self, raw(self.d.url, "GET", "/v1/jobs?state=x"), 400, "invalid-request")
+        if len(seen) > 2:  # a token only works with the filter that produced it
+            tok = json.loads(raw(self.d.url, "GET", "/v1/jobs?page_size=1")[2])["next_page_token"]
+            problem(self, raw(self.d.url, "GET", "/v1/jobs?status=failed&page_token=" + tok), 400, "invalid-page-token")
+
+    # -- bad input --------------------------------------------------------------------------------
+    def post(self, path, body, ctype="application/octet-stream", headers=None):
+        h = {"Content-Type": ctype}
+        h.update(headers or {})
+        return raw(self.d.url, "POST", path, body, h)
+
+    def test_bad_options(self):
+        mesh = MESH_SPHERE
+        for q, key in [("order=0", "order"), ("order=99", "order"), ("order=abc", "order"), ("mode=melt", "mode"),
+                       ("foo=1", "foo"), ("nodes=gauss", "nodes"), ("format=vtk", "format"), ("binary=maybe", "binary"),
+                       ("mode=coarsen", "faces"), ("mode=coarsen&faces=10&ratio=0.1", "ratio"),
+                       ("mode=coarsen&ratio=1.5", "ratio"), ("faces=100", "faces"), ("order=3&order=4", "order")]:
+            p = problem(self, self.post("/v1/jobs?" + q, mesh), 400, "invalid-options")
+            self.assertIn("/options/" + key, [e["pointer"] for e in p["errors"]], q)
+        # Multipart: invalid JSON, non-object JSON, unknown key, unexpected part.
+        for opts, code in [(b"{order: 3", "invalid-json"), (b"[1,2]", "invalid-options"),
+                           (b'{"order": 3, "smooth": true}', "invalid-options")]:
+            body = (b"--XyZ\r\nContent-Disposition: form-data; name=\"mesh\"; filename=\"s.stl\"\r\n\r\n" + mesh +
+                    b"\r\n--XyZ\r\nContent-Disposition: form-data; name=\"options\"\r\n\r\n" + opts + b"\r\n--XyZ--\r\n")
+            problem(self, self.post("/v1/jobs", body, "multipart/form-data; boundary=XyZ"), 400, code)
+        body = b"--XyZ\r\nContent-Disposition: form-data; name=\"other\"\r\n\r\nx\r\n--XyZ--\r\n"
+        problem(self, self.post("/v1/jobs", body, "multipart/form-data; boundary=XyZ"), 400, "invalid-request")
+
+    def test_bad_bodies(self):
+        problem(self, self.post("/v1/jobs", os.urandom(5000)), 415, "unsupported-media-type")  # garbage
+        problem(self, self.post("/v1/jobs", b""), 422, "invalid-mesh")
+        problem(self, self.post("/v1/jobs", b'{"mesh": 1}', "application/json"), 415, "unsupported-media-type")
+        problem(self, self.post("/v1/jobs", MESH_SPHERE, "application/x-www-form-urlencoded"), 415,
+                "unsupported-media-type")
+        tri = [((0, 0, 0), (1, 0, 0), (0, 1, 0))] * 10
+        p = problem(self, self.post("/v1/jobs", binary_stl(tri, declared=1000)), 422, "invalid-mesh")  # lying count
+        self.assertIn("1000 facets", p["detail"])
+        good = binary_stl(tri)
+        problem(self, self.post("/v1/jobs", good[:-30], headers={}), 422, "invalid-mesh")  # truncated binary STL
+        p = problem(self, self.post("/v1/jobs", b"\0" * (2 << 20)), 413, "payload-too-large")
+        self.assertEqual(p["limit_bytes"], 1 << 20)
+        # Truncated ASCII STL is accepted, then refused by the worker: failed job, error invalid-mesh.
+        if self.real:
+            text = MESH_SPHERE
+            job = json.loads(self.post("/v1/jobs?order=2", text[: len(text) // 2])[2])
+            done = self.c.wait(job["id"], timeout=60)
+            self.assertEqual(done["status"], "failed")
+            self.assertEqual(done["error"]["code"], "invalid-mesh")
+            self.assertTrue(done["error"]["detail"])
+            problem(self, raw(self.d.url, "GET", "/v1/jobs/%s/result" % job["id"]), 409, "job-state-conflict")
+
+    def test_chunked_body_needs_length(self):
+        host, port = self.d.url.split("//")[1].split(":")
+        c = http.client.HTTPConnection(host, int(port), timeout=30)
+        c.request("POST", "/v1/jobs", body=iter([MESH_SPHERE]),
+                  headers={"Content-Type": "application/octet-stream"}, encode_chunked=True)
+        r = c.getresponse()
+        body = r.read()
+        c.close()
+        self.assertIn(r.status, (411,), body)
+        self.assertEqual(json.loads(body)["code"], "length-required")
+
+    def test_paths_and_ids(self):
+        for path in ["/v1/jobs/does-not-exist", "/v1/jobs/..%2f..%2fetc%2fpasswd", "/v1/jobs/../../etc/passwd",
+                     "/v1/jobs/%2e%2e", "/v1/jobs/a%00b", "/v1/jobs/x/result", "/v1/jobs/x/stats", "/v2/anything",
+                     "/v1/jobs/" + "a" * 65]:
+            st, h, body = raw(self.d.url, "GET", path)
+            self.assertEqual(st, 404, path)
+            self.assertEqual(h["content-type"], "application/problem+json", path)
+        problem(self, raw(self.d.url, "GET", "/v1/jobs/" + "a" * 300), 414, "uri-too-long")
+        problem(self, raw(self.d.url, "DELETE", "/v1/jobs/nope"), 404, "not-found")
+        # The data directory is not reachable through ids.
+        self.assertNotEqual(raw(self.d.url, "GET", "/v1/jobs/..%2Fstate.json")[0], 200)
+
+    def test_delete_finished_job(self):
+        done = self.submit_wait()
+        st, _, _ = raw(self.d.url, "DELETE", "/v1/jobs/" + done["id"])
+        self.assertEqual(st, 204)
+        problem(self, raw(self.d.url, "GET", "/v1/jobs/" + done["id"]), 404, "not-found")
+        self.assertFalse(os.path.exists(os.path.join(self.d.data_dir, "jobs", done["id"])))
+
+    # -- clients ---------------------------------------------------------------------------------
+    def test_python_cli(self):
+        out = os.path.join(self.tmp, "cli.msh")
+        cli = os.path.join(D.SOURCE_DIR, "clients", "python", "hocurve_client.py")
+        r = subprocess.run(["/usr/bin/python3", cli, "--url", self.d.url, "submit", SPHERE, "--order", "2", "--wait",
+                            "-o", out], capture_output=True, text=True, timeout=90)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(json.loads(r.stdout)["status"], "succeeded")
+        self.assertIn("100%", r.stderr)  # progress bar
+        self.assertTrue(data(out).startswith(b"$MeshFormat"))
+        r = subprocess.run(["/usr/bin/python3", cli, "--url", self.d.url, "submit", SPHERE, "--order", "0"],
+                           capture_output=True, text=True, timeout=30)
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("order must be an integer", r.stderr)  # the problem's detail is shown
+        r = subprocess.run(["/usr/bin/python3", cli, "--url", self.d.url, "status", "nope"],
+                           capture_output=True, text=True, timeout=30)
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("not-found", r.stderr)
+
+    def test_curl_scripts(self):
+        if not shutil.which("curl"):
+            self.skipTest("curl not installed")
+        d = os.path.join(D.SOURCE_DIR, "clients", "curl")
+        env = dict(os.environ, HOCURVE_URL=self.d.url)
+        r = subprocess.run(["bash", os.path.join(d, "submit.sh"), SPHERE, "order=2"], capture_output=True,
+                           text=True, timeout=30, env=env)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        job_id = r.stdout.strip()
+        self.assertRegex(job_id, r"^[0-9a-f]{24}$")
+        r = subprocess.run(["bash", os.path.join(d, "poll.sh"), job_id], capture_output=True, text=True, timeout=90,
+                           env=env)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("succeeded", r.stdout)
+        out = os.path.join(self.tmp, "curl.msh")
+        r = subprocess.run(["bash", os.path.join(d, "download.sh"), job_id, out], capture_output=True, text=True,
+                           timeout=30, env=env)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertTrue(data(out).startswith(b"$MeshFormat"))
+        r = subprocess.run(["bash", os.path.join(d, "cancel.sh"), job_id], capture_output=True, text=True,
+                           timeout=30, env=env)
+        self.assertEqual(r.returncode, 0, r.stderr)  # finished job: deleted
+        r = subprocess.run(["bash", os.path.join(d, "poll.sh"), job_id], capture_output=True, text=True, timeout=30,
+                           env=env)
+        self.assertNotEqual(r.returncode, 0)
+        self.assertIn("not-found", r.stderr + r.stdout)
+
+
+class ServerAuth(unittest.TestCase):
+    def test_bearer_token(self):
+        tmp = tempfile.mkdtemp(prefix="hocurved-auth-")
+        token = os.path.join(tmp, "token")
+        with open(token, "w") as f:
+            f.write("s3cret-token\n")
+        worker = D.fake_worker(tmp, "fake_ok.py", D.FAKE_OK)
+        with D.Daemon(BUILD_DIR, worker=worker, args=["--token-file", token]) as d:
+            self.assertEqual(raw(d.url, "GET", "/healthz")[0], 200)
+            problem(self, raw(d.url, "GET", "/v1/jobs"), 401, "unauthorized")
+            problem(self, raw(d.url, "GET", "/v1/jobs", headers={"Authorization": "Bearer s3cret-tokem"}), 401,
+                    "unauthorized")
+            problem(self, raw(d.url, "GET", "/v1/jobs", headers={"Authorization": "Bearer s3cret-token2"}), 401,
+                    "unauthorized")
+            self.assertEqual(raw(d.url, "GET", "/v1/jobs", headers={"Authorization": "Bearer s3cret-token"})[0], 200)
+            c = Client(d.url, token="s3cret-token")
+            job = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)
+            self.assertEqual(job["status"], "succeeded")
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    unittest.main(argv=[sys.argv[0], "-v"] + sys.argv[2:])

@@ -1,0 +1,211 @@
+#!/usr/bin/python3
+"""hocurved under stress and failure: 8 concurrent clients submitting 200 jobs, kill -9 during a job
+and restart, a crashing worker, cancel, timeout, graceful SIGTERM. Real daemon, loopback only.
+Usage: test_server_robust.py BUILD_DIR"""
+import concurrent.futures
+import json
+import os
+import shutil
+import signal
+import sys
+import tempfile
+import time
+import unittest
+import urllib.request
+
+BUILD_DIR = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.environ.get("HOCURVE_BUILD_DIR", "build"))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "server"))
+import daemon as D  # noqa: E402
+from hocurve_client import Client, ProblemError  # noqa: E402
+
+SPHERE = os.path.join(D.SHARED_DIR, "meshes", "sphere_surf_gmsh.stl")
+
+
+def wait_for(pred, timeout, interval=0.05):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        v = pred()
+        if v:
+            return v
+        time.sleep(interval)
+    return None
+
+
+class Robust(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.mkdtemp(prefix="hocurved-robust-")
+        self.real = D.real_worker(BUILD_DIR)
+        self.ok_worker = self.real or D.fake_worker(self.tmp, "fake_ok.py", D.FAKE_OK)
+        if not self.real:
+            print("NOTE: %s/hocurve not built: using a fake worker" % BUILD_DIR, file=sys.stderr)
+        self.daemons = []
+
+    def tearDown(self):
+        for d in self.daemons:
+            try:
+                d.stop(timeout=30)
+            except Exception:
+                pass
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def daemon(self, worker, args=(), data_dir=None, env=None):
+        d = D.Daemon(BUILD_DIR, data_dir=data_dir or os.path.join(self.tmp, "data"), worker=worker, args=args, env=env)
+        d.start()
+        self.daemons.append(d)
+        return d
+
+    def test_200_concurrent_submissions_none_lost(self):
+        d = self.daemon(self.ok_worker, ["--workers", "2", "--max-queue", "12", "--http-threads", "12"])
+        mesh = open(SPHERE, "rb").read()
+
+        def client(k):
+            c = Client(d.url, timeout=60)
+            accepted, refused = [], 0
+            for _ in range(25):
+                try:
+                    accepted.append(c.submit(mesh, {"order": 2})["id"])
+                except ProblemError as e:
+                    assert e.status == 429 and e.type == "queue-full", e
+                    assert e.retry_after and e.retry_after > 0
+                    refused += 1
+            return accepted, refused
+
+        with concurrent.futures.ThreadPoolExecutor(8) as ex:
+            results = list(ex.map(client, range(8)))
+        accepted = [i for a, _ in results for i in a]
+        refused = sum(r for _, r in results)
+        self.assertEqual(len(accepted) + refused, 200)
+        self.assertEqual(len(set(accepted)), len(accepted))
+        self.assertGreater(len(accepted), 0)
+        c = Client(d.url)
+        for i in accepted:
+            self.assertEqual(c.wait(i, timeout=120)["status"], "succeeded", i)
+        listed = {j["id"] for j in c.list()}
+        self.assertTrue(set(accepted) <= listed)
+        metrics = urllib.request.urlopen(d.url + "/metrics", timeout=10).read().decode()
+        self.assertIn("hocurve_queue_full_total %d\n" % refused, metrics)
+        print("\n  200 submissions: %d accepted, %d refused with 429" % (len(accepted), refused), file=sys.stderr)
+
+    def test_kill9_during_job_then_restart(self):
+        data = os.path.join(self.tmp, "data")
+        slow = D.slow_wrapper(self.tmp, self.ok_worker, 2)
+        d = self.daemon(slow, ["--workers", "1"], data_dir=data)
+        c = Client(d.url)
+        first = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=60)
+        self.assertEqual(first["status"], "succeeded")
+        job = c.submit(SPHERE, {"order": 3})
+        self.assertTrue(wait_for(lambda: c.get(job["id"])["status"] == "running", 10))
+        queued = c.submit(SPHERE, {"order": 2})
+        d.kill9()
+        d2 = self.daemon(slow, ["--workers", "1"], data_dir=data)
+        c2 = Client(d2.url)
+        done = c2.wait(job["id"], timeout=60)
+        self.assertEqual(done["status"], "succeeded", done["error"])
+        self.assertEqual(done["attempts"], 2)
+        self.assertEqual(c2.wait(queued["id"], timeout=60)["status"], "succeeded")
+        # The job finished before the crash is still listed and downloadable.
+        self.assertIn(first["id"], [j["id"] for j in c2.list()])
+        out = os.path.join(self.tmp, "first.msh")
+        self.assertEqual(c2.download(first["id"], out), first["result"]["bytes"])
+
+    def test_crashing_worker_fails_job_and_daemon_keeps_serving(self):
+        crash = D.fake_worker(self.tmp, "crash.sh", D.FAKE_CRASH)
+        d = self.daemon(crash, ["--workers", "2"])
+        c = Client(d.url)
+        jobs = [c.submit(SPHERE, {"order": 2})["id"] for _ in range(3)]
+        for i in jobs:
+            done = c.wait(i, timeout=30)
+            self.assertEqual(done["status"], "failed")
+            self.assertEqual(done["error"]["code"], "worker-crashed")
+            self.assertIn("signal 11", done["error"]["detail"])
+            self.assertIn("about to crash", done["error"]["detail"])  # the worker's last stderr line
+        self.assertEqual(c.health()["status"], "ok")
+        self.assertEqual(len(list(c.list(status="failed"))), 3)
+
+    def test_worker_exit_codes(self):
+        w = D.fake_worker(self.tmp, "exit.sh", "#!/bin/sh\necho 'sphere.stl: facet 7: degenerate' >&2\nexit ${FAKE_RC}\n")
+        for rc, code in [("3", "invalid-mesh"), ("2", "invalid-options"), ("4", "internal")]:
+            d = self.daemon(w, data_dir=os.path.join(self.tmp, "data" + rc), env={"FAKE_RC": rc})
+            c = Client(d.url)
+            done = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)
+            self.assertEqual((done["status"], done["error"]["code"]), ("failed", code))
+            self.assertIn("facet 7: degenerate", done["error"]["detail"])
+            with self.assertRaises(ProblemError) as e:
+                c.stats(done["id"])
+            self.assertEqual(e.exception.status, 409)
+            if rc == "3":  # the sync variant maps a refused mesh to 422
+                with self.assertRaises(ProblemError) as e:
+                    c.curve(SPHERE, {"order": 2})
+                self.assertEqual((e.exception.status, e.exception.type), (422, "invalid-mesh"), e.exception.problem)
+
+    def test_cancel_timeout_and_memory_limit(self):
+        env = {"FAKE_SLEEP": "0.5", "FAKE_STEPS": "100"}  # 50 s unless stopped
+        slow = D.fake_worker(self.tmp, "slow.py", D.FAKE_OK)
+        d = self.daemon(slow, ["--workers", "1", "--job-timeout", "3"], env=env)
+        c = Client(d.url)
+        running = c.submit(SPHERE, {"order": 2})
+        queued = c.submit(SPHERE, {"order": 2})
+        self.assertTrue(wait_for(lambda: c.get(running["id"])["status"] == "running", 10))
+        t0 = time.monotonic()
+        self.assertEqual(c.cancel(queued["id"])["status"], "cancelled")
+        after = c.cancel(running["id"])
+        self.assertEqual(after["status"], "cancelled")
+        self.assertLess(time.monotonic() - t0, 5)
+        self.assertEqual(c.get(running["id"])["error"]["code"], "cancelled")
+        with self.assertRaises(ProblemError) as e:
+            c.download(running["id"], os.path.join(self.tmp, "x.msh"))
+        self.assertEqual(e.exception.status, 409)
+        # Time limit.
+        t = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)
+        self.assertEqual((t["status"], t["error"]["code"]), ("failed", "timeout"))
+        # Memory limit (RLIMIT_AS): a worker that allocates far beyond it dies; the job fails.
+        hog = D.fake_worker(self.tmp, "hog.py", "x = bytearray(2 << 30)\n")
+        d2 = self.daemon(hog, ["--job-memory-mb", "256"], data_dir=os.path.join(self.tmp, "data-hog"))
+        c2 = Client(d2.url)
+        h = c2.wait(c2.submit(SPHERE, {"order": 2})["id"], timeout=30)
+        self.assertEqual(h["status"], "failed")
+        self.assertIn("MemoryError", h["error"]["detail"])
+
+    def test_sigterm_drains_and_queued_jobs_survive(self):
+        data = os.path.join(self.tmp, "data")
+        env = {"FAKE_SLEEP": "0.3", "FAKE_STEPS": "100"}
+        slow = D.fake_worker(self.tmp, "slow.py", D.FAKE_OK)
+        d = self.daemon(slow, ["--workers", "1", "--shutdown-grace", "0.5"], data_dir=data, env=env)
+        c = Client(d.url)
+        a = c.submit(SPHERE, {"order": 2})
+        b = c.submit(SPHERE, {"order": 2})
+        self.assertTrue(wait_for(lambda: c.get(a["id"])["status"] == "running", 10))
+        t0 = time.monotonic()
+        self.assertEqual(d.stop(signal.SIGTERM, timeout=20), 0)
+        self.assertLess(time.monotonic() - t0, 10)
+        msgs = [l.get("msg") for l in d.lines]
+        self.assertIn("draining", msgs)
+        self.assertEqual(msgs[-1], "stopped")
+        for i in (a, b):
+            with open(os.path.join(data, "jobs", i["id"], "state.json")) as f:
+                state = json.load(f)
+            self.assertEqual(state["status"], "queued")
+        fast = D.fake_worker(self.tmp, "fast.py", D.FAKE_OK)
+        d2 = self.daemon(fast, data_dir=data)
+        c2 = Client(d2.url)
+        for i in (a, b):
+            self.assertEqual(c2.wait(i["id"], timeout=30)["status"], "succeeded")
+
+    def test_retention_and_quota(self):
+        fast = D.fake_worker(self.tmp, "fast.py", D.FAKE_OK)
+        d = self.daemon(fast, ["--retention", "1", "--max-disk-mb", "0.3"])
+        c = Client(d.url)
+        j = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)  # 119 KB of 300 KB
+        self.assertEqual(j["status"], "succeeded")
+        c.submit(SPHERE, {"order": 2})
+        with self.assertRaises(ProblemError) as e:  # a third upload would exceed the quota
+            c.submit(SPHERE, {"order": 2})
+        self.assertEqual((e.exception.status, e.exception.type), (507, "quota-exceeded"))
+        gone = wait_for(lambda: j["id"] not in [x["id"] for x in c.list()], 10)
+        self.assertTrue(gone, "expired job still listed")
+        self.assertFalse(os.path.exists(os.path.join(d.data_dir, "jobs", j["id"])))
+        c.wait(c.submit(SPHERE, {"order": 2}, retries=0)["id"], timeout=30)  # space was freed
+
+
+if __name__ == "__main__":
+    unittest.main(argv=[sys.argv[0], "-v"] + sys.argv[2:])
