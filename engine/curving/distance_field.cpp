@@ -126,8 +126,8 @@ DistanceField feature_distance(const Mesh& mesh, const Topology& T, const Featur
     }
   auto pos = [&](int v) -> Eigen::Vector3d { return mesh.V.row(v).transpose(); };
 
-  // Obtuse corners get a virtual vertex by unfolding; `dependents` lists, per virtual vertex,
-  // the corners that use it, so they are recomputed when it is accepted.
+  // Obtuse corners get virtual triangles by unfolding; `dependents` lists, per vertex, the
+  // corners (3f+k) whose virtual triangles use it, so they are updated when it is accepted.
   std::vector<VirtualPair> pairs;
   std::vector<int> pair_start;  // corner 3f+k -> its virtual triangles (CSR)
   std::vector<std::vector<int>> dependents;
@@ -142,55 +142,52 @@ DistanceField feature_distance(const Mesh& mesh, const Topology& T, const Featur
         pair_start[3 * f + k + 1] = static_cast<int>(pairs.size());
         for (size_t i = first; i < pairs.size(); ++i)
           for (int w : {pairs[i].x, pairs[i].y})
-            if (dependents[w].empty() || dependents[w].back() != mesh.F(f, k)) dependents[w].push_back(mesh.F(f, k));
+            if (dependents[w].empty() || dependents[w].back() != 3 * f + k) dependents[w].push_back(3 * f + k);
       }
   }
 
   std::vector<char> done(nv, 0);
-  // Best value of x from its accepted neighbours: edges, then the triangles around x (and the
-  // virtual triangles of obtuse corners). Accepted values are final, so recomputing is exact.
-  auto recompute = [&](int x) {
-    double best = D.distance[x];
-    auto [eb, ee] = T.edges_of(x);
-    for (const int* it = eb; it != ee; ++it) {
-      const int n = T.other(*it, x);
-      if (done[n]) best = std::min(best, D.distance[n] + (pos(n) - pos(x)).norm());
-    }
-    if (!opt.fast_marching) return best;
-    auto [fb, fe] = T.faces_of(x);
-    for (const int* it = fb; it != fe; ++it) {
-      const int f = *it;
-      int k = 0;
-      while (k < 3 && mesh.F(f, k) != x) ++k;
-      if (k == 3) continue;
-      const int a = mesh.F(f, (k + 1) % 3), b = mesh.F(f, (k + 2) % 3);
-      if (done[a] && done[b]) best = std::min(best, triangle_update(pos(a), pos(b), pos(x), D.distance[a], D.distance[b]));
-      for (int i = pair_start[3 * f + k]; i < pair_start[3 * f + k + 1]; ++i) {
-        const VirtualPair& vp = pairs[i];
-        if (!done[vp.x] || !done[vp.y]) continue;
-        const Eigen::Vector3d X3(vp.X.x(), vp.X.y(), 0), Y3(vp.Y.x(), vp.Y.y(), 0);
-        best = std::min(best, triangle_update(X3, Y3, Eigen::Vector3d::Zero(), D.distance[vp.x], D.distance[vp.y]));
-      }
-    }
-    return best;
-  };
-  auto refresh = [&](int x) {
-    if (done[x]) return;
-    const double t = recompute(x);
+  auto relax = [&](int x, double t) {
     if (t < D.distance[x]) {
       D.distance[x] = t;
       heap.push({t, x});
     }
   };
+  // When v is accepted, only the updates that involve v are new: every other combination of
+  // accepted vertices was tried when its last member was accepted.
   while (!heap.empty()) {
-    const auto [d, v] = heap.top();
+    const auto [tv, v] = heap.top();
     heap.pop();
-    if (done[v] || d > D.distance[v]) continue;  // stale entry
+    if (done[v] || tv > D.distance[v]) continue;  // stale entry
     done[v] = 1;
     auto [eb, ee] = T.edges_of(v);
-    for (const int* it = eb; it != ee; ++it) refresh(T.other(*it, v));
-    if (opt.fast_marching)
-      for (int x : dependents[v]) refresh(x);
+    for (const int* it = eb; it != ee; ++it) {
+      const int x = T.other(*it, v);
+      if (done[x]) continue;
+      double best = tv + (pos(v) - pos(x)).norm();
+      if (opt.fast_marching)
+        for (const int f : T.edge_faces[*it]) {  // triangles (x, v, third) with third accepted
+          int third = -1;
+          for (int j = 0; j < 3; ++j)
+            if (mesh.F(f, j) != x && mesh.F(f, j) != v) third = mesh.F(f, j);
+          if (third >= 0 && done[third])
+            best = std::min(best, triangle_update(pos(v), pos(third), pos(x), tv, D.distance[third]));
+        }
+      relax(x, best);
+    }
+    if (!opt.fast_marching) continue;
+    for (const int c : dependents[v]) {  // virtual triangles of obtuse corners that use v
+      const int x = mesh.F(c / 3, c % 3);
+      if (done[x]) continue;
+      double best = kInf;
+      for (int i = pair_start[c]; i < pair_start[c + 1]; ++i) {
+        const VirtualPair& vp = pairs[i];
+        if (!((vp.x == v && done[vp.y]) || (vp.y == v && done[vp.x]))) continue;
+        const Eigen::Vector3d X3(vp.X.x(), vp.X.y(), 0), Y3(vp.Y.x(), vp.Y.y(), 0);
+        best = std::min(best, triangle_update(X3, Y3, Eigen::Vector3d::Zero(), D.distance[vp.x], D.distance[vp.y]));
+      }
+      relax(x, best);
+    }
   }
   for (int v = 0; v < nv; ++v) {
     if (std::isfinite(D.distance[v]))
