@@ -231,6 +231,18 @@ void check_mesh_shape(const HighOrderMesh& hm, const char* where) {
                                 std::to_string(ne) + " edges, " + std::to_string(hm.edge_nodes.rows()) +
                                 " edge nodes, " + std::to_string(hm.face_nodes.rows()) + " face nodes, order " +
                                 std::to_string(p) + ")");
+  if (nf > 0 && (hm.F.cols() != 3 || hm.FE.cols() != 3 || hm.E.cols() != 2))
+    throw InputError(where, "F and FE must have 3 columns and E 2");
+  const Eigen::Index nv = hm.V.rows();
+  for (Eigen::Index f = 0; f < nf; ++f)
+    for (int j = 0; j < 3; ++j) {
+      if (hm.F(f, j) < 0 || hm.F(f, j) >= nv)
+        throw InputError(where, "face " + std::to_string(f) + ": vertex index " + std::to_string(hm.F(f, j)) +
+                                    " out of range 0.." + std::to_string(nv - 1));
+      if (hm.FE(f, j) < 0 || hm.FE(f, j) >= ne)
+        throw InputError(where, "face " + std::to_string(f) + ": edge index " + std::to_string(hm.FE(f, j)) +
+                                    " out of range 0.." + std::to_string(ne - 1));
+    }
 }
 
 // Checks the faces listed in `faces` into out[face] (parallel, deterministic).

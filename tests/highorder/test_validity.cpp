@@ -482,6 +482,14 @@ TEST_CASE("check_validity is deterministic and counts degenerate inputs; speed a
   CHECK(rd.invalid_after == 1);
   CHECK(rd.invalid_faces == std::vector<int>{0});
   CHECK(rd.min_scaled_jacobian == doctest::Approx(1));
+
+  // Inconsistent meshes are refused with an InputError, not a crash.
+  HighOrderMesh broken = dh;
+  broken.FE(1, 2) = 99;
+  CHECK_THROWS_AS(check_validity(broken), InputError);
+  broken = dh;
+  broken.face_nodes.conservativeResize(1, 3);
+  CHECK_THROWS_AS(repair_validity(broken), InputError);
 }
 
 TEST_CASE("verdicts agree with Gmsh's AnalyseMeshQuality (minJ/maxJ) on random elements") {
