@@ -12,6 +12,9 @@ struct FeatureOptions {
   double angle_deg = 35.0;         ///< an edge is sharp when its dihedral angle (between face normals) exceeds this
   double corner_angle_deg = 35.0;  ///< a vertex on a single curve is a corner when the curve turns more than this
   bool entity_borders = true;      ///< edges between faces of different input entities are features
+  /// Open curves made only of sharp edges, with a free end (feature valence 1) and fewer than
+  /// this many edges, are dropped as noise (scanned meshes have many); 0 keeps every curve.
+  int min_dangling_edges = 0;
 };
 
 struct Features {
@@ -25,6 +28,7 @@ struct Features {
   int corners = 0;
   long long feature_edges = 0;        ///< edges with edge_feature == 1 (an edge may be of several kinds above)
   int closed_curves = 0;              ///< curves that are closed loops without corners
+  long long pruned_edges = 0;         ///< sharp edges dropped by min_dangling_edges (still counted in sharp_edges)
 };
 
 /// Detects feature edges, chains them into curves and marks corners.

@@ -3,11 +3,14 @@
 #include "engine/core/topology.hpp"
 #include "engine/curving/features.hpp"
 #include "engine/curving/test_meshes.hpp"
+#include "engine/io/read_mesh.hpp"
 
 #include <doctest/doctest.h>
 
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <map>
 #include <numbers>
 #include <set>
@@ -229,4 +232,35 @@ TEST_CASE("bad options are refused") {
   FeatureOptions bad;
   bad.angle_deg = -1;
   CHECK_THROWS_AS(detect(icosphere(0), bad), InputError);
+}
+
+TEST_CASE("pruning short dangling sharp curves (scanned mesh)") {
+  const Mesh m = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/bunny_closed.obj").mesh;
+  const Topology T = build_topology(m.F, m.num_vertices());
+  const Features plain = detect_features(m, T);
+  FeatureOptions opt;
+  opt.min_dangling_edges = 3;
+  const Features pruned = detect_features(m, T, opt);
+  std::printf("bunny_closed: %lld sharp edges, %zu curves; pruning dangling < 3 edges: %lld edges, %zu curves left\n",
+              plain.sharp_edges, plain.curves.size(), pruned.feature_edges, pruned.curves.size());
+  CHECK(pruned.pruned_edges > 0);
+  CHECK(pruned.feature_edges == plain.feature_edges - pruned.pruned_edges);
+  CHECK(pruned.sharp_edges == plain.sharp_edges);
+  check_curves(m, pruned);
+  // Pruned edges were features before; no short curve with a free end is left.
+  std::vector<int> valence(m.num_vertices(), 0);
+  for (int e = 0; e < T.num_edges(); ++e) {
+    if (pruned.edge_feature[e]) CHECK(plain.edge_feature[e]);
+    if (pruned.edge_feature[e]) ++valence[T.E(e, 0)], ++valence[T.E(e, 1)];
+  }
+  for (const auto& c : pruned.curves)
+    if (c.size() - 1 < 3 && c.front() != c.back()) {
+      CHECK(valence[c.front()] != 1);
+      CHECK(valence[c.back()] != 1);
+    }
+  // CAD features are not dangling: the cube keeps its 12 curves; boundaries are never pruned.
+  opt.min_dangling_edges = 1000;
+  CHECK(detect(cube(3), opt).feature_edges == 36);
+  CHECK(detect(cube(3), opt).pruned_edges == 0);
+  CHECK(detect(polygon_disk(8), opt).feature_edges == 8);
 }
