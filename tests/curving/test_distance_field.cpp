@@ -4,6 +4,7 @@
 #include "engine/curving/features.hpp"
 #include "engine/curving/support_points.hpp"
 #include "engine/curving/test_meshes.hpp"
+#include "engine/io/read_mesh.hpp"
 
 #include <doctest/doctest.h>
 
@@ -11,6 +12,7 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <string>
 #include <vector>
 
 using namespace hocurve;
@@ -182,4 +184,28 @@ TEST_CASE("deterministic") {
   const Features F = detect_features(m, T);  // the whole square boundary
   const DistanceField a = feature_distance(m, T, F), b = feature_distance(m, T, F);
   CHECK(a.distance == b.distance);
+}
+
+TEST_CASE("shared CAD and scan meshes: finite, and never above Dijkstra") {
+  // Fast marching takes the minimum over edge and triangle updates of accepted vertices, so by
+  // induction over Dijkstra's order it can only be shorter than the edge-path distance.
+  for (const char* name : {"t13_data.stl", "hinge_netgen.stl", "lever_solidedge.stl", "ktoolcav.stl", "spot.obj"}) {
+    CAPTURE(name);
+    const Mesh m = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/" + name).mesh;
+    const Topology T = build_topology(m.F, m.num_vertices());
+    const Features F = detect_features(m, T);
+    DistanceOptions dij;
+    dij.fast_marching = false;
+    const DistanceField fm = feature_distance(m, T, F), dj = feature_distance(m, T, F, dij);
+    REQUIRE(fm.sources > 0);
+    CHECK(fm.unreachable == dj.unreachable);
+    double worst = 0;
+    for (int v = 0; v < m.num_vertices(); ++v) {
+      if (std::isinf(dj.distance[v])) continue;
+      REQUIRE(std::isfinite(fm.distance[v]));
+      REQUIRE(fm.distance[v] >= 0);
+      worst = std::max(worst, fm.distance[v] - dj.distance[v]);
+    }
+    CHECK(worst <= 1e-12 * std::max(1.0, dj.max_finite));
+  }
 }
