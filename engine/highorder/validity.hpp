@@ -2,9 +2,8 @@
 // triangle's normal, bounded by its Bernstein (Bezier) coefficients, and a repair that
 // pulls invalid elements toward their straight shape.
 #pragma once
-#include "engine/highorder/high_order_mesh.hpp"
-
 #include "engine/highorder/bezier.hpp"
+#include "engine/highorder/high_order_mesh.hpp"
 
 #include <Eigen/Core>
 #include <array>
