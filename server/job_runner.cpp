@@ -295,7 +295,7 @@ void JobRunner::run_job(const std::string& id) {
     fraction = std::clamp(fraction, 0.0, 1.0);
     store_.update(id, [&](Job& jj) {
       jj.stage = stage.empty() ? jj.stage : stage.substr(0, 64);
-      jj.fraction = fraction;
+      jj.fraction = std::max(jj.fraction, fraction);  // progress bars never go backwards
     }, /*persist=*/false);
   };
   for (;;) {

@@ -159,10 +159,23 @@ void JobStore::persist(const Job& job) const {
   write_file_atomic(job_dir(job.id) + "/state.json", job_to_state(job).dump(2) + "\n");
 }
 
+void JobStore::persist_version(const Job& job, std::uint64_t v) {
+  std::lock_guard<std::mutex> lock(persist_mutex_);
+  std::uint64_t& w = written_[job.id];
+  if (w >= v) return;
+  try {
+    persist(job);
+    w = v;
+  } catch (const std::exception& e) {
+    if (get(job.id)) throw;  // removed meanwhile: nothing to keep
+  }
+}
+
 void JobStore::insert(const Job& job) {
   persist(job);
   std::lock_guard<std::mutex> lock(mutex_);
   jobs_[job.id] = job;
+  versions_[job.id] = 1;
   if (!job.idempotency_key.empty()) idempotency_[job.idempotency_key] = job.id;
   changed_.notify_all();
 }
@@ -175,14 +188,18 @@ std::optional<Job> JobStore::get(const std::string& id) const {
 }
 
 std::optional<Job> JobStore::update(const std::string& id, const std::function<void(Job&)>& fn, bool persist_it) {
-  std::unique_lock<std::mutex> lock(mutex_);
-  auto it = jobs_.find(id);
-  if (it == jobs_.end()) return std::nullopt;
-  fn(it->second);
-  Job copy = it->second;
-  // Persist under the lock so that two updates of one job reach the disk in order.
-  if (persist_it) persist(copy);
-  changed_.notify_all();
+  Job copy;
+  std::uint64_t version = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = jobs_.find(id);
+    if (it == jobs_.end()) return std::nullopt;
+    fn(it->second);
+    copy = it->second;
+    version = ++versions_[id];
+    changed_.notify_all();
+  }
+  if (persist_it) persist_version(copy, version);
   return copy;
 }
 
@@ -193,7 +210,12 @@ bool JobStore::remove(const std::string& id) {
     if (it == jobs_.end()) return false;
     if (!it->second.idempotency_key.empty()) idempotency_.erase(it->second.idempotency_key);
     jobs_.erase(it);
+    versions_.erase(id);
     changed_.notify_all();
+  }
+  {
+    std::lock_guard<std::mutex> lock(persist_mutex_);  // also waits for a write in progress
+    written_.erase(id);
   }
   std::error_code ec;
   std::uint64_t bytes = 0;

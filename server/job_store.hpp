@@ -80,8 +80,14 @@ class JobStore {
 
  private:
   void persist(const Job& job) const;
+  /// Writes version `v` of the job unless a newer one was written already. Runs without `mutex_`
+  /// so that readers never wait for an fsync.
+  void persist_version(const Job& job, std::uint64_t v);
   std::string data_dir_;
   mutable std::mutex mutex_;
+  std::mutex persist_mutex_;
+  std::map<std::string, std::uint64_t> versions_;  // under mutex_
+  std::map<std::string, std::uint64_t> written_;   // under persist_mutex_
   mutable std::condition_variable changed_;
   std::map<std::string, Job> jobs_;
   std::map<std::string, std::string> idempotency_;  // key -> id
