@@ -5,7 +5,7 @@
 
 #include <doctest/doctest.h>
 #include <gmsh.h>
-#include <Eigen/LU>
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <array>
@@ -195,7 +195,11 @@ double lebesgue_constant(const Eigen::MatrixXd& X, int p) {
     const double x[3] = {X(i, 0), X(i, 1), dim == 3 ? X(i, 2) : 0.0};
     Vd.row(i) = row(x);
   }
-  const Eigen::MatrixXd C = Vd.inverse();  // columns: Lagrange basis coefficients
+  // Columns: Lagrange basis coefficients. Not Vd.inverse(): libgmsh exports its own
+  // PartialPivLU instantiation, and under ASan Eigen switches to a different aligned malloc,
+  // so the two copies would free each other's memory (bad-free in HOCURVE_SANITIZE builds).
+  const Eigen::MatrixXd C =
+      Vd.colPivHouseholderQr().solve(Eigen::MatrixXd::Identity(X.rows(), X.rows()));
   const int n = dim == 3 ? 24 : 60;
   double best = 0;
   for (int i = 0; i <= n; ++i)

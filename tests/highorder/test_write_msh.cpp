@@ -325,6 +325,11 @@ TEST_CASE("write_msh_file never leaves a partial or temporary file") {
   const std::string path = (dir / "out.msh").string();
   HighOrderMesh hm = curved(m, 2);
   write_msh_file(hm, path);
+  for (const Format& fmt : formats()) {
+    std::ostringstream os(std::ios::binary);
+    write_msh(hm, os, fmt.opt);
+    CHECK(os.str() == write_msh_string(hm, fmt.opt));
+  }
   const auto size_before = fs::file_size(path);
   // A mesh with a NaN node is refused before anything is written; the old file survives.
   hm.edge_nodes(3, 1) = std::numeric_limits<double>::quiet_NaN();
