@@ -1,0 +1,88 @@
+#!/usr/bin/python3
+"""End-to-end accuracy check of `hocurve curve`, measured independently of hocurve's C++ code.
+
+Shapes: unit sphere (h=0.1, ~3.2k triangles) and torus R=1, r=0.4 (h=0.2, ~1k triangles), meshed by
+Gmsh from exact OCC CAD and written as binary STL. hocurve curves them to P4; bench/measure_error.py
+samples every element's Lagrange map (Gmsh basis functions) and measures the exact distance.
+
+Asserts: output reads back with Gmsh as a single block of type-23 triangles, one per input triangle,
+watertight/conforming (every edge's node set shared by exactly two elements), no element with a
+non-positive sampled Jacobian against its straight normal; sphere: P4 error >= 1000x below the
+linear input's and <= 10x Gmsh's own P4 elevation of the exact CAD (REF); coarse torus: P4 error
+>= 4x below linear.
+
+Usage: test_accuracy.py BUILD_DIR   (the hocurve binary must exist there: CI builds it)
+"""
+import os
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+from bench import accuracy, shapes  # noqa: E402
+from bench import measure_error as me  # noqa: E402
+
+failures = []
+
+
+def check(cond, what):
+    print(("ok    " if cond else "FAIL  ") + what, flush=True)
+    if not cond:
+        failures.append(what)
+
+
+def main(argv):
+    build = argv[1] if len(argv) > 1 else os.environ.get("HOCURVE_BUILD_DIR", "build")
+    hoc = os.path.join(build, "hocurve")
+    if not os.access(hoc, os.X_OK):
+        print("FAIL  hocurve binary not found at %s (build the 'hocurve' target)" % hoc)
+        return 1
+    work = tempfile.mkdtemp(prefix="hocurve-acc-")
+    # (shape, size, strict): strict = the brief's targets (>= 1000x below linear, <= 10x Gmsh's
+    # exact-CAD P4); the coarse torus (h = r/2) only has to beat the linear input by 4x.
+    cases = [("sphere", 0.1, True), ("torus", 0.2, False)]
+    for name, size, strict in cases:
+        stl = shapes.make_stl(name, size, work)
+        h = shapes.size_value(name, size)
+        dist = me.distance_function(name, stl)
+        lin = me.measure(stl, name, stl, dist=dist)
+        out = os.path.join(work, "%s_p4.msh" % name)
+        r = accuracy.run_hocurve(hoc, stl, out, 4, os.path.join(work, "%s.json" % name), threads=2,
+                                 extra=["--binary"], timeout=300)
+        check(r["rc"] == 0, "%s: hocurve curve --order 4 exits 0 (rc %s, %.1f s) %s" % (
+            name, r["rc"], r["seconds"], r["stderr"].strip()[-300:] if r["rc"] else ""))
+        if r["rc"] != 0:
+            continue
+        m = me.measure(out, name, stl, dist=dist)
+        ref_path = os.path.join(work, "%s_ref_p4.msh" % name)
+        accuracy.gmsh_cad_order(name, h, 4, ref_path)
+        ref = me.measure(ref_path, name, stl, dist=dist)
+        print("      %s: %d triangles; linear max %.3e | hocurve P4 max %.3e rms %.3e | "
+              "Gmsh REF P4 max %.3e | linear/P4 %.0f, P4/REF %.2f, min J ratio %.3f" % (
+                  name, lin["elements"], lin["max"], m["max"], m["rms"], ref["max"],
+                  lin["max"] / max(m["max"], 1e-300), m["max"] / max(ref["max"], 1e-300),
+                  m["min_jacobian_ratio"]), flush=True)
+        check(m["element_type"] == 23 and set(m["types"]) <= {"23", "15", "1"},
+              "%s: output is Gmsh type 23 (P4 triangles); element types %s" % (name, m["types"]))
+        check(m["elements"] == lin["elements"],
+              "%s: %d elements for %d input triangles" % (name, m["elements"], lin["elements"]))
+        check(m["watertight"], "%s: watertight and conforming (%d edges not shared by exactly 2)" % (
+            name, m["edges_not_twice"]))
+        check(m["nonpositive_jacobian"] == 0,
+              "%s: %d elements with non-positive sampled Jacobian" % (name, m["nonpositive_jacobian"]))
+        if strict:
+            check(m["max"] * 1000 <= lin["max"], "%s: P4 error %.3e at least 1000x below linear %.3e" % (
+                name, m["max"], lin["max"]))
+            check(m["max"] <= 10 * ref["max"], "%s: P4 error %.3e within 10x of Gmsh CAD P4 %.3e" % (
+                name, m["max"], ref["max"]))
+        else:
+            check(m["max"] * 4 <= lin["max"], "%s: P4 error %.3e at least 4x below linear %.3e" % (
+                name, m["max"], lin["max"]))
+    if failures:
+        print("test_accuracy: %d check(s) failed" % len(failures))
+        return 1
+    print("test_accuracy: all checks passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
