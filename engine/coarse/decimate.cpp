@@ -147,6 +147,7 @@ struct Plan {
   int s = -1, r = -1;
   Eigen::Vector3d p;
   double cost = 0;
+  bool snapped = false;  ///< p is the survivor's own position
 };
 
 /// The working mesh: simple vertex -> faces adjacency, faces keep their ids while alive.
@@ -194,7 +195,7 @@ struct Decimator {
     const double len2 = (X[a] - X[b]).squaredNorm();
     const double tie = 1e-6 * q.trace() * len2;  // shortest edge first where Q vanishes (flat parts)
     auto snapped = [&](int s, int r) {
-      P.s = s, P.r = r, P.p = X[s];
+      P.s = s, P.r = r, P.p = X[s], P.snapped = true;
       P.cost = q.eval(P.p) + tie;
     };
     const bool fa = vfeat[a], fb = vfeat[b], ca = vcorner[a], cb = vcorner[b];
@@ -313,7 +314,10 @@ Reason Decimator::check_and_collapse(const Plan& P) {
     }
     for (int v : loc) patch.X.push_back(X[v]);
     patch.p = P.p;
-    patch.post_reuses_survivor_uv = vbnd[s];
+    patch.post_reuses_survivor_uv = P.snapped;
+    if (feat.count(edge_key(s, r)))
+      for (int x : nr)
+        if (x != s && feat.count(edge_key(r, x))) patch.curve_pin = local(x);  // already local: a neighbour of r
     patch.s_interior = !vbnd[s];
     patch.r_interior = !vbnd[r];
     FlattenOptions fo;

@@ -87,14 +87,13 @@ PatchFlattening flatten_collapse(const CollapsePatch& P, const FlattenOptions& o
     add_lscm(Q, tp, Xp);
   }
   // Free unknowns: all but u0,v0,u1,v1 (pinned), and the post survivor if it reuses local 0.
-  const int nfree_v = P.post_reuses_survivor_uv ? n - 2 : n - 1;
   std::vector<int> idx;  // free scalar entries
   for (int v = 2; v < N; ++v) {
     if (v == n && P.post_reuses_survivor_uv) continue;
-    idx.push_back(2 * v), idx.push_back(2 * v + 1);
+    idx.push_back(2 * v);
+    if (v != P.curve_pin) idx.push_back(2 * v + 1);
   }
   const int m = static_cast<int>(idx.size());
-  (void)nfree_v;
   Eigen::MatrixXd Qff(m, m);
   Eigen::VectorXd rhs(m);
   for (int a = 0; a < m; ++a) {
@@ -116,6 +115,10 @@ PatchFlattening flatten_collapse(const CollapsePatch& P, const FlattenOptions& o
   for (int a = 0; a < m; ++a) out.uv[idx[a] / 2][idx[a] % 2] = x[a];
   if (P.post_reuses_survivor_uv) out.uv[n] = out.uv[0];
   const auto& uv = out.uv;
+  if (P.curve_pin >= 0 && !(uv[P.curve_pin][0] > 1 + opt.min_area)) {
+    out.why = "curve";
+    return out;
+  }
 
   // Flips, degeneracies and quality, pre and post.
   double ang_s = 0, ang_r = 0, ang_p = 0;
@@ -143,7 +146,7 @@ PatchFlattening flatten_collapse(const CollapsePatch& P, const FlattenOptions& o
   }
   const double lim = 2 * std::numbers::pi + 1e-10;
   if ((P.s_interior && ang_s > lim) || (P.r_interior && ang_r > lim) ||
-      (P.s_interior && !P.post_reuses_survivor_uv && ang_p > lim)) {
+      (P.s_interior && ang_p > lim)) {
     out.why = "overlap";
     return out;
   }

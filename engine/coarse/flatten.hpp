@@ -13,13 +13,18 @@ namespace hocurve {
 /// vertex r, the others are the ring. Pre faces are all faces incident to s or r; the post faces
 /// are the pre faces that do not contain both, with r and s replaced by the post survivor, whose
 /// UV is the extra unknown number X.size() (or local 0's own UV when `post_reuses_survivor_uv`,
-/// used when s lies on the mesh boundary and does not move).
+/// used when s does not move: on the mesh boundary or on a feature curve, so that the boundary
+/// or curve through s is the same polyline before and after).
 struct CollapsePatch {
   std::vector<Eigen::Vector3d> X;            ///< 3D positions of the local vertices (pre)
   Eigen::Vector3d p = Eigen::Vector3d::Zero();  ///< 3D position of the survivor after the collapse
   std::vector<std::array<int, 3>> faces;     ///< pre faces, local indices, consistently oriented
   std::vector<char> removed;                 ///< per face: contains both s and r (gone after)
-  bool post_reuses_survivor_uv = false;
+  bool post_reuses_survivor_uv = false;  ///< s does not move (p == X[0]): post survivor = local 0's UV
+  /// Collapse along a feature curve: local index of r's other curve neighbour. Its UV is held on
+  /// the line through s and r, beyond r, so that the curve x - r - s maps onto the post curve
+  /// x - s and the map sends curve points to curve points. -1 when unused.
+  int curve_pin = -1;
   bool s_interior = true, r_interior = true;  ///< not on the mesh boundary
 };
 
@@ -30,7 +35,7 @@ struct FlattenOptions {
 
 /// Result: uv has X.size()+1 rows (the last is the post survivor). ok=false with `why` when a
 /// pre or post triangle flips or degenerates, a star overlaps itself (angle sum > 2 pi), the
-/// outer ring self-intersects, or the solve fails.
+/// outer ring self-intersects, the pinned curve neighbour does not lie beyond r, or the solve fails.
 struct PatchFlattening {
   std::vector<Eigen::Vector2d> uv;
   bool ok = false;

@@ -181,8 +181,7 @@ TEST_CASE("map on a cube with features (1728 -> 60)") {
   opt.target_faces = 60;
   const DecimateResult R = decimate(fine, opt);
   check_map(fine, R, 1000);
-  // Points on a cube edge: the flattening does not constrain feature curves, so their images
-  // may leave the coarse curve; measured, not asserted (part 2 fits curves separately).
+  // Points on a cube edge map onto a cube edge (curves are kept as polylines by the flattening).
   int on_edge = 0, kept = 0;
   for (int v = 0; v < fine.num_vertices(); ++v) {
     const Eigen::Vector3d x = fine.V.row(v);
@@ -196,6 +195,8 @@ TEST_CASE("map on a cube with features (1728 -> 60)") {
     kept += on2 >= 2;
   }
   MESSAGE("fine cube-edge vertices mapped onto a coarse cube edge: " << kept << " of " << on_edge);
+  CHECK(on_edge == 12 * 11 + 8);
+  CHECK(kept == on_edge);
 }
 
 TEST_CASE("open surface (sphere with a hole): boundary kept, topology kept, map round trips") {
