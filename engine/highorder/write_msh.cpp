@@ -20,6 +20,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include <oneapi/tbb/parallel_pipeline.h>
+
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -32,8 +34,9 @@ static_assert(std::endian::native == std::endian::little, "binary .msh output as
 // Output buffer that hands full chunks to a sink.
 class Out {
  public:
-  explicit Out(std::function<void(const char*, size_t)> sink) : sink_(std::move(sink)) {
-    buf_.resize(kSize);
+  explicit Out(std::function<void(const char*, size_t)> sink, size_t size = size_t(4) << 20)
+      : sink_(std::move(sink)) {
+    buf_.resize(size);
   }
   // Guarantees room for n more bytes.
   void reserve(size_t n) {
@@ -49,6 +52,11 @@ class Out {
   void str(const char* s) { raw(s, std::strlen(s)); }
   void str(const std::string& s) { raw(s.data(), s.size()); }
   void raw(const void* p, size_t n) {
+    if (n >= buf_.size() / 2) {  // large blocks go straight to the sink, in order
+      flush();
+      sink_(static_cast<const char*>(p), n);
+      return;
+    }
     reserve(n);
     std::memcpy(buf_.data() + pos_, p, n);
     pos_ += n;
@@ -70,7 +78,6 @@ class Out {
   }
 
  private:
-  static constexpr size_t kSize = size_t(4) << 20;
   std::function<void(const char*, size_t)> sink_;
   std::vector<char> buf_;
   size_t pos_ = 0;
@@ -230,6 +237,38 @@ void write_entities_41(Out& o, const std::vector<Entity>& ents, bool binary) {
   o.str("$EndEntities\n");
 }
 
+// Formats items [0, n) as text in parallel chunks and appends them to o in order: a TBB
+// pipeline with a bounded number of chunks in flight, so memory stays small and the bytes
+// are identical to a serial loop. fmt(out, i) writes item i.
+template <class Fmt>
+void parallel_text(Out& o, size_t n, size_t chunk, const Fmt& fmt) {
+  using Range = std::pair<size_t, size_t>;
+  size_t next = 0;
+  tbb::parallel_pipeline(
+      8,
+      tbb::make_filter<void, Range>(tbb::filter_mode::serial_in_order,
+                                    [&](tbb::flow_control& fc) {
+                                      if (next >= n) {
+                                        fc.stop();
+                                        return Range{};
+                                      }
+                                      const Range r{next, std::min(n, next + chunk)};
+                                      next = r.second;
+                                      return r;
+                                    }) &
+          tbb::make_filter<Range, std::string>(tbb::filter_mode::parallel,
+                                               [&](Range r) {
+                                                 std::string s;
+                                                 Out t([&](const char* p, size_t k) { s.append(p, k); },
+                                                       size_t(1) << 16);
+                                                 for (size_t i = r.first; i < r.second; ++i) fmt(t, i);
+                                                 t.flush();
+                                                 return s;
+                                               }) &
+          tbb::make_filter<std::string, void>(tbb::filter_mode::serial_in_order,
+                                              [&](const std::string& s) { o.raw(s.data(), s.size()); }));
+}
+
 void write_coords_text(Out& o, const Eigen::MatrixXd& X, Eigen::Index i) {
   o.reserve(80);
   o.num(X(i, 0));
@@ -273,7 +312,8 @@ void write_nodes_41(Out& o, const Eigen::MatrixXd& X, int entity, bool binary) {
         o.num(t);
         o.ch('\n');
       }
-      for (Eigen::Index i = 0; i < X.rows(); ++i) write_coords_text(o, X, i);
+      parallel_text(o, static_cast<size_t>(X.rows()), 16384,
+                    [&](Out& t, size_t i) { write_coords_text(t, X, static_cast<Eigen::Index>(i)); });
     }
   }
   o.str("$EndNodes\n");
@@ -317,16 +357,18 @@ void write_elements_41(Out& o, const HighOrderMesh& hm, const std::vector<Entity
       o.ch(' ');
       o.num(en.faces.size());
       o.ch('\n');
-      for (int f : en.faces) {
-        element_node_indices(hm, f, idx.data());
-        o.reserve(static_cast<size_t>(n + 1) * 24);
-        o.num(f + 1);
+      parallel_text(o, en.faces.size(), 8192, [&](Out& t, size_t i) {
+        int local[66];
+        const int f = en.faces[i];
+        element_node_indices(hm, f, local);
+        t.reserve(static_cast<size_t>(n + 1) * 24);
+        t.num(f + 1);
         for (int k = 0; k < n; ++k) {
-          o.ch(' ');
-          o.num(idx[k] + 1);
+          t.ch(' ');
+          t.num(local[k] + 1);
         }
-        o.ch('\n');
-      }
+        t.ch('\n');
+      });
     }
   }
   o.str("$EndElements\n");
@@ -336,16 +378,18 @@ void write_nodes_22(Out& o, const Eigen::MatrixXd& X, bool binary) {
   o.str("$Nodes\n");
   o.num(X.rows());
   o.ch('\n');
-  for (Eigen::Index i = 0; i < X.rows(); ++i) {
-    if (binary) {
+  if (binary) {
+    for (Eigen::Index i = 0; i < X.rows(); ++i) {
       o.bin<int32_t>(static_cast<int32_t>(i + 1));
       const double xyz[3] = {X(i, 0), X(i, 1), X(i, 2)};
       o.raw(xyz, sizeof xyz);
-    } else {
-      o.num(i + 1);
-      o.ch(' ');
-      write_coords_text(o, X, i);
     }
+  } else {
+    parallel_text(o, static_cast<size_t>(X.rows()), 16384, [&](Out& t, size_t i) {
+      t.num(i + 1);
+      t.ch(' ');
+      write_coords_text(t, X, static_cast<Eigen::Index>(i));
+    });
   }
   if (binary) o.ch('\n');
   o.str("$EndNodes\n");
@@ -362,38 +406,47 @@ void write_elements_22(Out& o, const HighOrderMesh& hm, const std::vector<Entity
   o.str("$Elements\n");
   o.num(total);
   o.ch('\n');
-  long long tag = 0;
+  // Element tag = face + 1 for an element's first copy (as in 4.1); further copies (entities
+  // in several groups) are numbered after the last face.
+  long long extra = hm.num_faces();
   for (const Entity& en : ents) {
     const std::vector<int> phys = en.physicals.empty() ? std::vector<int>{0} : en.physicals;
-    for (int ph : phys) {
+    for (size_t q = 0; q < phys.size(); ++q) {
+      const int ph = phys[q];
+      const long long first = extra + 1;  // tag of copy i when q > 0: first + i
+      auto tag_of = [&](size_t i) { return q == 0 ? static_cast<long long>(en.faces[i]) + 1 : first + static_cast<long long>(i); };
       if (binary && !en.faces.empty()) {
         for (int32_t c : {int32_t(type), int32_t(en.faces.size()), int32_t(2)}) o.bin(c);
       }
-      for (int f : en.faces) {
-        element_node_indices(hm, f, idx.data());
-        ++tag;
-        if (binary) {
-          rec[0] = static_cast<int32_t>(tag);
+      if (binary) {
+        for (size_t i = 0; i < en.faces.size(); ++i) {
+          element_node_indices(hm, en.faces[i], idx.data());
+          rec[0] = static_cast<int32_t>(tag_of(i));
           rec[1] = ph;
           rec[2] = en.tag;
           for (int k = 0; k < n; ++k) rec[k + 3] = idx[k] + 1;
           o.raw(rec.data(), rec.size() * sizeof(int32_t));
-        } else {
-          o.reserve(static_cast<size_t>(n + 5) * 24);
-          o.num(tag);
-          o.ch(' ');
-          o.num(type);
-          o.str(" 2 ");
-          o.num(ph);
-          o.ch(' ');
-          o.num(en.tag);
-          for (int k = 0; k < n; ++k) {
-            o.ch(' ');
-            o.num(idx[k] + 1);
-          }
-          o.ch('\n');
         }
+      } else {
+        parallel_text(o, en.faces.size(), 8192, [&](Out& t, size_t i) {
+          int local[66];
+          element_node_indices(hm, en.faces[i], local);
+          t.reserve(static_cast<size_t>(n + 5) * 24);
+          t.num(tag_of(i));
+          t.ch(' ');
+          t.num(type);
+          t.str(" 2 ");
+          t.num(ph);
+          t.ch(' ');
+          t.num(en.tag);
+          for (int k = 0; k < n; ++k) {
+            t.ch(' ');
+            t.num(local[k] + 1);
+          }
+          t.ch('\n');
+        });
       }
+      if (q > 0) extra += static_cast<long long>(en.faces.size());
     }
   }
   if (binary) o.ch('\n');
@@ -406,8 +459,13 @@ void write_all(const HighOrderMesh& hm, const MshOptions& opt, const std::functi
   const std::vector<Entity> ents = collect_entities(hm, X);
   const bool v41 = opt.version == MshOptions::Version::V41;
   const bool with_entities = !hm.physicals.empty() || ents.size() > 1;
-  if (!v41 && opt.binary && X.rows() > std::numeric_limits<int32_t>::max())
-    throw InputError("HighOrderMesh", "too many nodes for MSH 2.2 binary (int32 tags)");
+  if (!v41 && opt.binary) {
+    long long elements = 0;
+    for (const Entity& en : ents)
+      elements += static_cast<long long>(en.faces.size()) * std::max<size_t>(1, en.physicals.size());
+    if (std::max<long long>(X.rows(), elements) > std::numeric_limits<int32_t>::max())
+      throw InputError("HighOrderMesh", "too many nodes or elements for MSH 2.2 binary (int32 tags)");
+  }
   Out o(sink);
   write_header(o, hm, opt);
   if (with_entities) write_physical_names(o, hm);

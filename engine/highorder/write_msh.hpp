@@ -7,7 +7,8 @@
 //   form one block on the first surface entity (Gmsh and meshio resolve element nodes by tag,
 //   whatever entity a node block names).
 // - Elements: element tag = face index + 1; one block per surface entity (distinct
-//   face_entity values, ascending), faces in index order within a block.
+//   face_entity values, ascending), faces in index order within a block. (2.2 copies of an
+//   element in its 2nd, 3rd... group are numbered after the last face.)
 // - $PhysicalNames (groups with a name) and $Entities (4.1; one discrete surface per entity
 //   with its physical tags and bounding box, no boundary) are written when the mesh has
 //   physical groups or several entities. In 2.2 an element carries 2 tags (physical,
