@@ -17,6 +17,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <thread>
 
 using namespace hocurve;
 namespace fs = std::filesystem;
@@ -441,5 +442,17 @@ TEST_CASE("large meshes: parallel text chunks keep order (ASCII) and match binar
     const std::string path = (out_dir() / ("grid_" + fname + ".msh")).string();
     write_msh_file(hm, path, fmt.opt);
     check_with_gmsh(hm, path);
+  }
+}
+
+TEST_CASE("concurrent writers produce identical bytes") {
+  const HighOrderMesh hm = curved(test_mesh(), 5);
+  for (const Format& fmt : formats()) {
+    const std::string ref = write_msh_string(hm, fmt.opt);
+    std::vector<std::string> out(4);
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 4; ++t) threads.emplace_back([&, t] { out[t] = write_msh_string(hm, fmt.opt); });
+    for (auto& th : threads) th.join();
+    for (const std::string& s : out) CHECK(s == ref);
   }
 }
