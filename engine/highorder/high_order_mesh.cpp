@@ -85,8 +85,9 @@ Eigen::MatrixXd element_nodes(const HighOrderMesh& hm, int f) {
   const int p = hm.order, npe = p - 1;
   const int nv = static_cast<int>(hm.V.rows());
   const int ne = static_cast<int>(hm.E.rows());
+  if (p < 1 || p > 10) throw UsageError("element_nodes: order " + std::to_string(p) + " out of range 1..10");
   const int n = triangle_node_count(p);
-  int idx[66];
+  int idx[66];  // order <= 10
   element_node_indices(hm, f, idx);
   Eigen::MatrixXd X(n, 3);
   for (int k = 0; k < n; ++k) {
