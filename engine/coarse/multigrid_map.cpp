@@ -128,6 +128,19 @@ SurfacePoint coarse_to_fine(const CoarseMap& M, int coarse_face, const Eigen::Ve
   return sp;
 }
 
+Eigen::SparseMatrix<double> prolongation(const CoarseMap& M) {
+  const int n = static_cast<int>(M.vertex_coarse_face.size());
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(3 * static_cast<size_t>(n));
+  for (int v = 0; v < n; ++v)
+    for (int k = 0; k < 3; ++k)
+      if (M.vertex_coarse_bary(v, k) != 0)
+        trip.emplace_back(v, M.coarse_F(M.vertex_coarse_face[v], k), M.vertex_coarse_bary(v, k));
+  Eigen::SparseMatrix<double> P(n, M.coarse_V.rows());
+  P.setFromTriplets(trip.begin(), trip.end());
+  return P;
+}
+
 Eigen::MatrixXd fine_vertices_on_coarse(const CoarseMap& M) {
   const int n = static_cast<int>(M.vertex_coarse_face.size());
   Eigen::MatrixXd P(n, 3);

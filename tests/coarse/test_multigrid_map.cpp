@@ -164,8 +164,23 @@ TEST_CASE("map on an icosphere (5120 -> 4%)") {
   MESSAGE(R.message);
   CHECK(R.map.num_collapses() == R.collapses);
   check_map(fine, R, 2000);
-  // Coverage for fitting: every coarse face receives some fine vertices on average.
-  CHECK(fine.num_vertices() / R.coarse.num_faces() >= 1);
+  // Coverage for fitting: the coarse faces around each coarse vertex gather at least
+  // 1.5 x 10 fine vertices (enough for a cubic height-field fit's 10 coefficients).
+  std::vector<int> around(R.coarse.num_vertices(), 0);
+  for (int f = 0; f < R.coarse.num_faces(); ++f) {
+    auto [b, e] = R.map.fine_vertices_in(f);
+    for (int j = 0; j < 3; ++j) around[R.coarse.F(f, j)] += static_cast<int>(e - b);
+  }
+  const int fewest = *std::min_element(around.begin(), around.end());
+  MESSAGE("fewest fine vertices around a coarse vertex: " << fewest);
+  CHECK(fewest >= 15);
+  // Prolongation matrix: rows sum to one and reproduce the tracked positions.
+  const Eigen::SparseMatrix<double> P = prolongation(R.map);
+  CHECK(P.rows() == fine.num_vertices());
+  CHECK(P.cols() == R.coarse.num_vertices());
+  const Eigen::VectorXd rows = P * Eigen::VectorXd::Ones(P.cols());
+  CHECK((rows.array() - 1).abs().maxCoeff() < 1e-12);
+  CHECK((P * R.coarse.V - fine_vertices_on_coarse(R.map)).cwiseAbs().maxCoeff() < 1e-12);
 }
 
 TEST_CASE("map on a torus (4096 -> 4%)") {
