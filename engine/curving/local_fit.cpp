@@ -26,7 +26,7 @@ void monomials(double u, double v, int p, double* out) {
 
 /// Column-scaled, column-pivoted QR solve of min |A c - b|; false when rank deficient.
 bool solve_scaled(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, double rank_tol,
-                  Eigen::VectorXd& c) {
+                  Eigen::VectorXd& c, double* pivot_ratio = nullptr, bool basic = false) {
   const Eigen::Index m = A.cols();
   Eigen::VectorXd scale(m);
   Eigen::MatrixXd As = A;
@@ -36,9 +36,24 @@ bool solve_scaled(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, double ran
     scale[j] = 1.0 / s;
     As.col(j) *= scale[j];
   }
+  if (basic) {
+    // Minimum-norm solution of the rank-truncated system: directions the points leave
+    // (nearly) open get no curvature instead of arbitrary pivoting choices.
+    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod;
+    cod.setThreshold(rank_tol);
+    cod.compute(As);
+    c = cod.solve(b);
+    c.array() *= scale.array();
+    if (pivot_ratio) *pivot_ratio = 0;
+    return c.allFinite();
+  }
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(As);
   qr.setThreshold(rank_tol);
   if (qr.rank() < m) return false;
+  if (pivot_ratio) {
+    const double r0 = std::abs(qr.matrixQR()(0, 0));
+    *pivot_ratio = r0 > 0 ? std::abs(qr.matrixQR()(m - 1, m - 1)) / r0 : 0.0;
+  }
   c = qr.solve(b);
   c.array() *= scale.array();
   return c.allFinite();
@@ -72,7 +87,7 @@ Eigen::Vector3d LocalFit::project(const Eigen::Vector3d& x) const {
 LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, double h,
                           const Eigen::MatrixXd& P, const Eigen::VectorXd& w, int degree,
                           const FitOptions& opt, const Eigen::MatrixXd& Q,
-                          const Eigen::VectorXd& wq) {
+                          const Eigen::VectorXd& wq, bool basic) {
   LocalFit F;
   F.o = o;
   F.n = n;
@@ -100,9 +115,10 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
     const int m = fit_coefficients(p);
     if (k < m) continue;
     Eigen::VectorXd c;
-    if (!solve_scaled(A.leftCols(m), b, opt.rank_tol, c)) continue;
+    double pivot = 0;
+    if (!solve_scaled(A.leftCols(m), b, basic ? opt.support_condition : opt.rank_tol, c, &pivot, basic)) continue;
     bool ok = true;
-    if (opt.safeguard && p >= 3 && k < opt.safeguard_skip * m) {
+    if (!basic && opt.safeguard && p >= 3 && k < opt.safeguard_skip * m) {
       for (int d = p - 1; d >= 2 && ok; --d) {
         Eigen::VectorXd ct;
         const int md = fit_coefficients(d);
@@ -116,6 +132,7 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
     if (!ok) continue;
     F.degree = p;
     F.c = c;
+    F.pivot_ratio = pivot;
     return F;
   }
   F.degree = 0;
@@ -153,10 +170,12 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
   so.max_rings = opt.max_rings;
   so.target_points = need + 1;
   so.max_points = opt.max_points;
-  const Stencil S = grow_stencil(mesh, T, W, w, so);
-
-  // Normal cone: keep vertices seen by at least one region face facing like n0.
-  std::unordered_set<int> seen;
+  Stencil S = grow_stencil(mesh, T, W, w, so);
+  std::vector<int> pts;
+  Eigen::MatrixXd P;
+  Eigen::VectorXd dist, wt;
+  double sigma = 0;
+  auto gauss = [&](double d) { return std::exp(-d * d / (2 * sigma * sigma)); };
   auto face_normal = [&](int f) {
     const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)),
                           c = mesh.V.row(mesh.F(f, 2));
@@ -164,28 +183,42 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
     const double l = nf.norm();
     return l > 0 ? Eigen::Vector3d(nf / l) : Eigen::Vector3d::Zero();
   };
+  // Rank-deficient point sets (a one-sided stencil on a structured grid has only p rows of
+  // vertices for degree p) get more rings before the degree is lowered.
+  LocalFit fit;
+  int k = 0;
+  for (int attempt = 0; attempt < 3; ++attempt) {
+  if (attempt > 0) {
+    if (fit.degree >= p || S.rings >= opt.max_rings || static_cast<int>(S.vertices.size()) >= opt.max_points) break;
+    so.target_points = static_cast<int>(S.vertices.size()) + 1;  // one more ring
+    Stencil grown = grow_stencil(mesh, T, W, w, so);
+    if (grown.vertices.size() == S.vertices.size()) break;
+    S = std::move(grown);
+  }
+
+  // Normal cone: keep vertices seen by at least one region face facing like n0.
+  std::unordered_set<int> seen;  // per attempt
   for (int f : S.faces)
     if (face_normal(f).dot(n0) > opt.normal_cone)
       for (int j = 0; j < 3; ++j) seen.insert(mesh.F(f, j));
-  std::vector<int> pts;
+  pts.clear();
   for (size_t i = 1; i < S.vertices.size(); ++i)
     if (seen.count(S.vertices[i])) pts.push_back(S.vertices[i]);
-  const int k = static_cast<int>(pts.size());
-  Eigen::MatrixXd P(k, 3);
-  Eigen::VectorXd dist(k);
+  k = static_cast<int>(pts.size());
+  P.resize(k, 3);
+  dist.resize(k);
   for (int i = 0; i < k; ++i) {
     P.row(i) = mesh.V.row(pts[i]);
     dist[i] = (P.row(i).transpose() - o).norm();
   }
   // Weights.
-  Eigen::VectorXd wt(k);
-  double sigma = opt.sigma_factor * h;
+  wt.resize(k);
+  sigma = opt.sigma_factor * h;
   if (k > 0) {
     std::vector<double> sd(dist.data(), dist.data() + k);
     std::sort(sd.begin(), sd.end());
     sigma = std::max(sigma, 0.5 * sd[std::min(k, need) - 1]);
   }
-  auto gauss = [&](double d) { return std::exp(-d * d / (2 * sigma * sigma)); };
   if (opt.weight == WeightKind::Gaussian) {
     for (int i = 0; i < k; ++i) wt[i] = gauss(dist[i]);
   } else {
@@ -193,14 +226,35 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
     for (int i = 0; i < k; ++i) wt[i] = std::pow(dist[i] * dist[i] / mean2 + 0.01, -0.5 * p);
   }
 
-  LocalFit fit = solve_height_fit(o, n0, h, P, wt, p, opt);
-  if (opt.refine_normal && fit.degree >= 1) {
-    Eigen::Vector3d n1 = n0 - fit.c[0] * fit.t1 - fit.c[1] * fit.t2;
-    if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) fit = solve_height_fit(o, n1.normalized(), h, P, wt, p, opt);
+  LocalFit trial = solve_height_fit(o, n0, h, P, wt, p, opt);
+  if (opt.refine_normal && trial.degree >= 1) {
+    Eigen::Vector3d n1 = n0 - trial.c[0] * trial.t1 - trial.c[1] * trial.t2;
+    if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) trial = solve_height_fit(o, n1.normalized(), h, P, wt, p, opt);
   }
-  fit.rings = S.rings;
+  trial.rings = S.rings;
+  if (attempt == 0 || trial.degree > fit.degree) fit = trial;
+  }
 
-  if (support && (opt.support_everywhere || fit.degree < p) && !support_start.empty()) {
+  const bool short_of_vertices = fit.degree < p || fit.pivot_ratio < opt.support_condition;
+  // Ill-conditioned fits (vertices on a few lines, as on the long strips of CAD exports)
+  // extrapolate wildly at high degree: they fall back to a low degree, on the smaller stencil
+  // that degree needs.
+  const bool ill = fit.degree >= 1 && fit.pivot_ratio < opt.support_condition;
+  if (ill && p > opt.short_fit_degree) {
+    LocalFit low = fit_wedge(mesh, T, W, w, opt.short_fit_degree, support, support_start, support_index, opt);
+    low.requested_degree = p;
+    return low;
+  }
+  const int pd = p;
+  const bool have_support = support && !support_start.empty();
+  if (ill && !have_support) {
+    // No samples to decide the open directions: take the minimum-norm fit (no curvature
+    // along directions the vertices leave open).
+    LocalFit basic = solve_height_fit(o, fit.n, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), true);
+    basic.rings = fit.rings;
+    return basic;
+  }
+  if (support && (opt.support_everywhere || short_of_vertices) && !support_start.empty()) {
     const double R = k ? dist.maxCoeff() : 3 * h;
     std::vector<int> sel;
     for (int f : S.faces) {
@@ -219,13 +273,15 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
         const double d = (Q.row(i).transpose() - o).norm();
         wq[i] = opt.support_weight * (opt.weight == WeightKind::Gaussian ? gauss(d) : 1.0);
       }
-      // Proximal lifting: raw facet samples first, then samples lifted onto the last fit.
-      LocalFit fs = solve_height_fit(o, fit.n, h, P, wt, p, opt, Q, wq);
-      for (int it = 0; it < opt.support_lifts && fs.degree > 0; ++it) {
-        Eigen::MatrixXd Ql(ns, 3);
-        for (int i = 0; i < ns; ++i) Ql.row(i) = fs.project(Q.row(i).transpose()).transpose();
-        fs = solve_height_fit(o, fit.n, h, P, wt, p, opt, Ql, wq);
+      // Lift the facet samples onto the basic vertex fit: full degree where the vertices
+      // determine it, zero coefficients for the columns they leave (nearly) open. Where the
+      // vertex fit is well posed the lifted samples lie on it and the final fit equals it.
+      if (opt.support_lift) {
+        const LocalFit basic = solve_height_fit(o, fit.n, h, P, wt, pd, opt, Eigen::MatrixXd(), Eigen::VectorXd(), true);
+        for (int i = 0; i < ns; ++i) Q.row(i) = basic.project(Q.row(i).transpose()).transpose();
       }
+      LocalFit fs = solve_height_fit(o, fit.n, h, P, wt, pd, opt, Q, wq);
+      fs.requested_degree = p;
       if (fs.degree >= fit.degree) {
         fs.rings = S.rings;
         fit = fs;

@@ -36,12 +36,18 @@ struct FitOptions {
   double safeguard_skip = 2.0;
   double rank_tol = 1e-10;       ///< numerical rank: |R_kk| <= rank_tol * |R_00|
   double normal_cone = 0.1;      ///< drop stencil vertices seen only by faces with n_f . n <= this
-  /// Support points: their row weight is support_weight x their Gaussian weight, and they are
-  /// lifted support_lifts times onto the current fit (proximal iteration): in directions the
-  /// vertices determine the fit converges to the vertex-only fit, so facet samples cannot
-  /// cap the accuracy at O(h^2); in directions the vertices leave open they decide.
+  /// Support points (only in fits short of vertices): row weight support_weight x their
+  /// Gaussian weight, lifted first onto the minimum-norm rank-truncated (at support_condition)
+  /// degree-p fit of the vertices. Raw facet samples (support_lift = false) cap the error at
+  /// O(h^2) (fitting.md section 6); lifted ones cannot where the vertices determine the fit.
   double support_weight = 0.1;
-  int support_lifts = 3;
+  bool support_lift = true;
+  /// A fit is short of vertices (and takes support points when they are enabled) when its
+  /// degree had to be lowered or its pivot_ratio is below this.
+  /// Measured: well-spread stencils have pivot_ratio >= 2e-4 even at p = 6, vertices on two
+  /// lines (CAD strips) ~4e-6. Below it the fit also falls back to short_fit_degree.
+  double support_condition = 1e-4;
+  int short_fit_degree = 2;
   bool support_everywhere = false;  ///< testing: add support points to every fit, not only short ones
 };
 
@@ -60,6 +66,9 @@ struct LocalFit {
   int points = 0;               ///< stencil vertices used (centre excluded)
   int support_points = 0;       ///< support points used
   int rings = 0;
+  /// Smallest / largest pivot of the column-scaled QR of the accepted solve: near 0 when the
+  /// points barely determine the polynomial (e.g. all on two lines).
+  double pivot_ratio = 0;
 
   /// Height above the tangent plane at (u, v).
   double height(double u, double v) const;
@@ -73,10 +82,12 @@ void tangent_frame(const Eigen::Vector3d& n, Eigen::Vector3d& t1, Eigen::Vector3
 /// Solves one interpolatory weighted least-squares fit at origin o with normal n, scale h,
 /// to points P (#P x 3) with row weights w, lowering the degree when the system is short,
 /// rank deficient or fails the safeguard. Q/ wq: extra (support) points and row weights.
+/// basic: never lower the degree; minimum-norm solution of the system truncated at the
+/// numerical rank (pivots below opt.support_condition).
 LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, double h,
                           const Eigen::MatrixXd& P, const Eigen::VectorXd& w, int degree,
                           const FitOptions& opt, const Eigen::MatrixXd& Q = Eigen::MatrixXd(),
-                          const Eigen::VectorXd& wq = Eigen::VectorXd());
+                          const Eigen::VectorXd& wq = Eigen::VectorXd(), bool basic = false);
 
 /// Result of fitting every wedge.
 struct FitResult {

@@ -202,7 +202,7 @@ TEST_CASE("support points do not cap the accuracy (lifted, forced into every fit
   // The trap this avoids (fitting.md section 6): the same samples used raw, at full weight,
   // cap the error at O(h^2) whatever p is.
   CurveOptions raw = forced;
-  raw.fit.support_lifts = 0;
+  raw.fit.support_lift = false;
   raw.fit.support_weight = 1.0;
   auto capped = table("ellipsoid, raw facet samples at full weight (the trap)", meshes, {4}, ellipsoid, raw);
   CHECK(rate(capped, 0) < 3.0);
