@@ -14,6 +14,7 @@ linear input's and <= 10x Gmsh's own P4 elevation of the exact CAD (REF); coarse
 Usage: test_accuracy.py BUILD_DIR   (the hocurve binary must exist there: CI builds it)
 """
 import os
+import shutil
 import sys
 import tempfile
 
@@ -30,6 +31,23 @@ def check(cond, what):
         failures.append(what)
 
 
+def check_harness(work):
+    """The harness itself: Gmsh's exact-CAD P4 sphere at h=0.1 must reproduce the independently
+    measured baseline of reference/gmsh.md §11 (3.67e-7), and the conformity check must flag an
+    element edge whose high-order node is not shared."""
+    stl = shapes.make_stl("sphere", 0.1, work)
+    ref_path = os.path.join(work, "harness_ref_p4.msh")
+    accuracy.gmsh_cad_order("sphere", 0.1, 4, ref_path)
+    ref = me.measure(ref_path, "sphere", stl)
+    check(2.5e-7 < ref["max"] < 5e-7 and ref["watertight"] and ref["nonpositive_jacobian"] == 0,
+          "harness: Gmsh CAD P4 sphere h=0.1 max %.3e (reference 3.67e-7), watertight" % ref["max"])
+    conn = me.read_triangles(ref_path)["conn"].copy()
+    conn[0, 3] = conn.max() + 1  # a private node on edge 0-1 of element 0
+    e = me.edge_check(conn, 4)
+    check(not e["watertight"] and e["edges_not_twice"] == 2,
+          "harness: an unshared high-order edge node is detected (%d edge keys used once)" % e["edges_not_twice"])
+
+
 def main(argv):
     build = argv[1] if len(argv) > 1 else os.environ.get("HOCURVE_BUILD_DIR", "build")
     hoc = os.path.join(build, "hocurve")
@@ -37,6 +55,7 @@ def main(argv):
         print("FAIL  hocurve binary not found at %s (build the 'hocurve' target)" % hoc)
         return 1
     work = tempfile.mkdtemp(prefix="hocurve-acc-")
+    check_harness(work)
     # (shape, size, strict): strict = the brief's targets (>= 1000x below linear, <= 10x Gmsh's
     # exact-CAD P4); the coarse torus (h = r/2) only has to beat the linear input by 4x.
     cases = [("sphere", 0.1, True), ("torus", 0.2, False)]
@@ -78,8 +97,9 @@ def main(argv):
             check(m["max"] * 4 <= lin["max"], "%s: P4 error %.3e at least 4x below linear %.3e" % (
                 name, m["max"], lin["max"]))
     if failures:
-        print("test_accuracy: %d check(s) failed" % len(failures))
+        print("test_accuracy: %d check(s) failed (files kept in %s)" % (len(failures), work))
         return 1
+    shutil.rmtree(work, ignore_errors=True)
     print("test_accuracy: all checks passed")
     return 0
 
