@@ -5,6 +5,7 @@
 #include "engine/coarse/flatten.hpp"
 #include "engine/core/error.hpp"
 #include "engine/core/topology.hpp"
+#include "engine/curving/test_meshes.hpp"
 
 #include <doctest/doctest.h>
 #include <algorithm>
@@ -296,3 +297,44 @@ TEST_CASE("bunny_closed -> 4%") {
   check_map(fine, R, 1000);
 }
 #endif
+
+TEST_CASE("capped cylinder: rims kept by decimation and by the map") {
+  const double radius = 1.0, height = 2.0;
+  const Mesh fine = capped_cylinder(48, 16, radius, height);
+  DecimateOptions opt;
+  opt.target_ratio = 0.1;
+  const DecimateResult R = decimate(fine, opt);
+  MESSAGE(R.message);
+  CHECK(R.reached_target);
+  check_map(fine, R, 500);
+  const Mesh& C = R.coarse;
+  auto on_rim = [&](const Eigen::Vector3d& x, double tol) {
+    return std::abs(std::abs(x.z()) - height / 2) < tol && std::abs(x.head<2>().norm() - radius) < tol;
+  };
+  // Coarse faces stay in their entity: cap faces flat at +-h/2, side faces on the cylinder.
+  int rim_vertices = 0;
+  for (int v = 0; v < C.num_vertices(); ++v) rim_vertices += on_rim(C.V.row(v), 1e-12);
+  CHECK(rim_vertices >= 6);
+  for (int f = 0; f < C.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j) {
+      const Eigen::Vector3d x = C.V.row(C.F(f, j));
+      if (C.entity_of(f) == 1) CHECK(std::abs(x.head<2>().norm() - radius) < 0.02);  // QEM sits inside a curve
+      else CHECK(std::abs(x.z() - (C.entity_of(f) == 3 ? 1 : -1) * height / 2) < 1e-12);
+    }
+  // Fine rim vertices map onto the coarse rim: every corner with a non-zero barycentric is a
+  // rim vertex (a point on a rim edge or at a rim vertex).
+  int rim = 0, kept = 0;
+  for (int v = 0; v < fine.num_vertices(); ++v) {
+    if (!on_rim(fine.V.row(v), 1e-12)) continue;
+    ++rim;
+    const int f = R.map.vertex_coarse_face[v];
+    const Eigen::Vector3d b = R.map.vertex_coarse_bary.row(v);
+    bool ok = true;
+    for (int k = 0; k < 3; ++k)
+      if (b[k] > 1e-12 && !on_rim(C.V.row(C.F(f, k)), 1e-12)) ok = false;
+    kept += ok;
+  }
+  MESSAGE("fine rim vertices on a coarse rim edge: " << kept << " of " << rim);
+  CHECK(rim == 96);
+  CHECK(kept == rim);
+}
