@@ -76,6 +76,7 @@ void read_stl_ascii(std::string_view b, const std::string& name, const ReadOptio
   int solids = 0;
   long long facet = 0;
   auto expect = [&](std::string_view want) {
+    sc.skip_space();
     const long long line = sc.line();
     const std::string_view t = sc.token();
     if (t != want)
@@ -88,6 +89,7 @@ void read_stl_ascii(std::string_view b, const std::string& name, const ReadOptio
     ++solids;
     sc.next_line();  // the solid's name, if any
     for (;;) {
+      sc.skip_space();
       const long long line = sc.line();
       const std::string_view t = sc.token();
       if (t == "endsolid") { sc.next_line(); break; }
@@ -101,6 +103,7 @@ void read_stl_ascii(std::string_view b, const std::string& name, const ReadOptio
       std::size_t first = pts.size();
       int corners = 0;
       for (;;) {
+        sc.skip_space();
         const long long vline = sc.line();
         const std::string_view k = sc.token();
         if (k == "endloop") break;
