@@ -206,6 +206,10 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
                                                 " MiB) is used up; delete jobs or retry later");
     }
   }
+  if (!req.has_header("Content-Length")) {
+    discard_body(req, res, reader);
+    throw ApiError(411, "length-required", "uploads need a Content-Length header (chunked bodies are not accepted)");
+  }
   Upload up = receive_upload(req, reader, cap, app.store.uploads_dir());
   app.metrics.upload_bytes += up.bytes;
   auto drop = [&](ApiError e) -> ApiError {

@@ -80,11 +80,13 @@ void discard_body(const httplib::Request& req, httplib::Response& res, const htt
                   std::uint64_t limit) {
   const std::string text = req.get_header_value("Content-Length");
   const bool numeric = !text.empty() && text.size() < 18 && text.find_first_not_of("0123456789") == std::string::npos;
-  if (!numeric || std::stoull(text) > limit) {
+  const bool chunked = req.get_header_value("Transfer-Encoding").find("chunked") != std::string::npos;
+  if (!chunked && (!numeric || std::stoull(text) > limit)) {
     res.set_header("Connection", "close");
     return;
   }
   std::uint64_t seen = 0;
+  res.set_header("Connection", "close");  // a body cut short by the limit leaves the stream unusable
   if (req.is_multipart_form_data())
     reader([](const httplib::MultipartFormData&) { return true; },
            [&](const char*, size_t n) { seen += n; return seen <= limit; });

@@ -294,7 +294,7 @@ class ServerApi(unittest.TestCase):
     def test_chunked_body_needs_length(self):
         host, port = self.d.url.split("//")[1].split(":")
         c = http.client.HTTPConnection(host, int(port), timeout=30)
-        c.request("POST", "/v1/jobs", body=iter([MESH_SPHERE]),
+        c.request("POST", "/v1/jobs", body=iter([MESH_SPHERE[:2000], MESH_SPHERE[2000:4000]]),
                   headers={"Content-Type": "application/octet-stream"}, encode_chunked=True)
         r = c.getresponse()
         body = r.read()

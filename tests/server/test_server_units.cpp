@@ -1,0 +1,226 @@
+// Unit tests of hocurved's pieces that need no HTTP: option validation, worker command line, format
+// sniffing, the Prometheus text, and the durable job store (atomic state, reload, pagination).
+#include "server/format_sniff.hpp"
+#include "server/job_options.hpp"
+#include "server/job_store.hpp"
+#include "server/metrics.hpp"
+#include "server/problem.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <unistd.h>
+
+using namespace hocurve::server;
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+std::string binary_stl(std::uint32_t facets, std::uint32_t declared) {
+  std::string s(80, ' ');
+  s.replace(0, 9, "test part");
+  s.append(reinterpret_cast<const char*>(&declared), 4);
+  s.append(50ull * facets, '\0');
+  return s;
+}
+
+std::vector<std::string> pointers(const ApiError& e) {
+  std::vector<std::string> out;
+  for (auto& x : e.extra.at("errors")) out.push_back(x.at("pointer"));
+  return out;
+}
+
+std::string temp_dir(const char* name) {
+  fs::path p = fs::temp_directory_path() / (std::string(name) + "-" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p.string();
+}
+}  // namespace
+
+TEST_CASE("options: defaults are filled and strings from a query are typed") {
+  json o = normalise_options(json::object());
+  CHECK(o == json({{"mode", "curve"}, {"order", 3}, {"nodes", "lobatto"}, {"format", "msh41"}, {"binary", false}}));
+  o = normalise_options({{"order", "5"}, {"binary", "1"}, {"nodes", "equispaced"}, {"format", "msh22"}});
+  CHECK(o["order"] == 5);
+  CHECK(o["binary"] == true);
+  o = normalise_options({{"mode", "coarsen"}, {"ratio", "0.05"}, {"order", 4}});
+  CHECK(o == json({{"mode", "coarsen"}, {"order", 4}, {"ratio", 0.05}}));
+}
+
+TEST_CASE("options: every offending key is reported with a JSON pointer") {
+  for (const char* bad : {"0", "1", "7", "99", "-3", "3.5", "abc", ""}) {
+    try {
+      normalise_options({{"order", bad}});
+      FAIL("order " << bad << " accepted");
+    } catch (const ApiError& e) {
+      CHECK(e.status == 400);
+      CHECK(e.type == "invalid-options");
+      CHECK(pointers(e) == std::vector<std::string>{"/options/order"});
+    }
+  }
+  try {
+    normalise_options({{"order", 99}, {"smooth", true}, {"nodes", "gauss"}});
+    FAIL("accepted");
+  } catch (const ApiError& e) {
+    auto p = pointers(e);
+    CHECK(p.size() == 3);
+    CHECK(std::string(e.what()).find("unknown option 'smooth'") != std::string::npos);
+  }
+  CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}}), ApiError);                                // neither
+  CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"faces", 10}, {"ratio", 0.5}}), ApiError);  // both
+  CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"faces", 10}, {"binary", 1}}), ApiError);  // curve-only key
+  CHECK_THROWS_AS(normalise_options({{"faces", 10}}), ApiError);                                      // coarsen-only key
+  CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"ratio", 0}}), ApiError);
+  CHECK_THROWS_AS(normalise_options(json::array()), ApiError);
+  CHECK_THROWS_AS(options_from_query({{"order", "3"}, {"order", "4"}}), ApiError);
+}
+
+TEST_CASE("worker command line follows the CLI contract") {
+  auto a = worker_argv("/bin/hocurve", normalise_options({{"order", 4}, {"binary", true}}), "in.stl", "out.msh", "s.json", 2);
+  CHECK(a == std::vector<std::string>{"/bin/hocurve", "curve", "in.stl", "-o", "out.msh", "--order", "4", "--nodes",
+                                      "lobatto", "--format", "msh41", "--binary", "--threads", "2", "--stats", "s.json",
+                                      "--progress"});
+  a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"faces", 500}, {"order", 2}}), "i", "o", "s", 1);
+  CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "2", "--faces", "500", "--stats", "s",
+                                      "--progress"});
+}
+
+TEST_CASE("format sniffing and the upload-time binary STL count check") {
+  CHECK(sniff_mesh(binary_stl(10, 10), 84 + 500, "").format == "stl-binary");
+  CHECK(sniff_mesh(binary_stl(10, 10), 84 + 500, "").refusal.empty());
+  auto lying = sniff_mesh(binary_stl(10, 1000), 84 + 500, "");
+  CHECK(lying.refusal.find("declares 1000 facets but its 584 bytes hold 10") != std::string::npos);
+  std::string truncated = binary_stl(10, 10).substr(0, 84 + 470);
+  CHECK(sniff_mesh(truncated, truncated.size(), "").refusal.find("truncated") != std::string::npos);
+  CHECK(sniff_mesh(binary_stl(0, 0), 84, "").refusal == "binary STL declares 0 facets");
+  // A binary header that starts with "solid" is still binary when the size matches.
+  std::string solid_binary = binary_stl(3, 3);
+  solid_binary.replace(0, 5, "solid");
+  CHECK(sniff_mesh(solid_binary, solid_binary.size(), "").format == "stl-binary");
+  std::string ascii = "solid x\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n";
+  CHECK(sniff_mesh(ascii, ascii.size(), "").format == "stl-ascii");
+  CHECK(sniff_mesh("# obj\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", 40, "").format == "obj");
+  CHECK(sniff_mesh("ply\nformat ascii 1.0\n", 20, "").format == "ply");
+  CHECK(sniff_mesh("OFF\n3 1 0\n", 10, "").format == "off");
+  CHECK(sniff_mesh("$MeshFormat\n4.1 0 8\n", 20, "").format == "msh");
+  auto gz = sniff_mesh(std::string("\x1f\x8b\x08\x00", 4), 100, "part.STL.gz");
+  CHECK(gz.format == "gzip");
+  CHECK(gz.extension == ".stl.gz");
+  CHECK(sniff_mesh("hello world, this is not a mesh\n", 32, "").format.empty());
+  CHECK(sniff_mesh("", 0, "").refusal == "the upload is empty");
+  std::string garbage(5000, '\0');
+  for (size_t i = 0; i < garbage.size(); ++i) garbage[i] = char((i * 2654435761u) >> 13);
+  auto g = sniff_mesh(garbage, garbage.size(), "");
+  CHECK((g.format.empty() || !g.refusal.empty()));  // never accepted as a mesh
+}
+
+TEST_CASE("Prometheus text: histogram and label escaping (golden)") {
+  Histogram h({0.5, 1});
+  h.observe(0.25);
+  h.observe(0.75);
+  h.observe(3);
+  std::string out;
+  h.render(out, "x_seconds", "route=\"/a\"");
+  CHECK(out ==
+        "x_seconds_bucket{route=\"/a\",le=\"0.5\"} 1\n"
+        "x_seconds_bucket{route=\"/a\",le=\"1\"} 2\n"
+        "x_seconds_bucket{route=\"/a\",le=\"+Inf\"} 3\n"
+        "x_seconds_sum{route=\"/a\"} 4\n"
+        "x_seconds_count{route=\"/a\"} 3\n");
+  CHECK(escape_label("a\"b\\c\nd") == "a\\\"b\\\\c\\nd");
+  Metrics m;
+  m.count_request("GET", "/v1/jobs/{id}", 200, 0.002);
+  m.job_finished("succeeded", 1.5);
+  GaugeSnapshot g;
+  g.jobs_by_state = {{"queued", 2}, {"running", 1}};
+  g.queue_depth = 2;
+  std::string text = m.render(g, "9.9.9");
+  CHECK(text.back() == '\n');
+  CHECK(text.find("hocurve_build_info{version=\"9.9.9\",api_version=\"1\"} 1\n") != std::string::npos);
+  CHECK(text.find("hocurve_jobs{state=\"queued\"} 2\n") != std::string::npos);
+  CHECK(text.find("hocurve_http_requests_total{method=\"GET\",route=\"/v1/jobs/{id}\",code=\"200\"} 1\n") !=
+        std::string::npos);
+  CHECK(text.find("hocurve_job_duration_seconds_bucket{le=\"2\"} 1\n") != std::string::npos);
+  CHECK(text.find("hocurve_job_duration_seconds_bucket{le=\"1\"} 0\n") != std::string::npos);
+  // Every sample belongs to a family declared before it.
+  std::set<std::string> declared;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("# TYPE ", 0) == 0) declared.insert(line.substr(7, line.find(' ', 7) - 7));
+    if (line[0] == '#') continue;
+    std::string name = line.substr(0, line.find_first_of("{ "));
+    for (const char* suffix : {"_bucket", "_sum", "_count"})
+      if (!declared.count(name) && name.size() > strlen(suffix) &&
+          name.compare(name.size() - strlen(suffix), strlen(suffix), suffix) == 0)
+        name = name.substr(0, name.size() - strlen(suffix));
+    CHECK_MESSAGE(declared.count(name), line);
+  }
+}
+
+TEST_CASE("job store: atomic state, reload, pagination, idempotency keys") {
+  const std::string dir = temp_dir("hocurved-store");
+  std::vector<std::string> ids;
+  {
+    JobStore store(dir);
+    for (int i = 0; i < 7; ++i) {
+      Job j;
+      j.id = store.new_id();
+      j.created = 1000 + i;
+      j.options = {{"order", 2 + i % 3}};
+      j.idempotency_key = i == 3 ? "k3" : "";
+      j.status = i % 2 ? "succeeded" : "queued";
+      fs::create_directories(store.job_dir(j.id));
+      store.insert(j);
+      ids.push_back(j.id);
+    }
+    CHECK(std::is_sorted(ids.begin(), ids.end()));
+    store.update(ids[0], [](Job& j) { j.status = "running"; j.stage = "fits"; j.fraction = 0.5; });
+    fs::create_directories(dir + "/jobs/00000000000000000000dead");  // interrupted upload: no state.json
+  }
+  JobStore store(dir);
+  auto loaded = store.load();
+  REQUIRE(loaded.size() == 7);
+  CHECK(!fs::exists(dir + "/jobs/00000000000000000000dead"));
+  auto j0 = store.get(ids[0]);
+  REQUIRE(j0);
+  CHECK(j0->status == "running");
+  CHECK(j0->fraction == 0.5);
+  CHECK(j0->options == json({{"order", 2}}));
+  CHECK(store.find_idempotent("k3")->id == ids[3]);
+  CHECK(!fs::exists(store.job_dir(ids[0]) + "/state.json.tmp"));
+
+  bool more = false;
+  auto page1 = store.list(3, "", "", more);
+  CHECK(more);
+  REQUIRE(page1.size() == 3);
+  CHECK(page1[0].id == ids[6]);  // newest first
+  auto page2 = store.list(3, page1.back().id, "", more);
+  CHECK(page2[0].id == ids[3]);
+  auto page3 = store.list(3, page2.back().id, "", more);
+  CHECK(page3.size() == 1);
+  CHECK(!more);
+  auto done = store.list(10, "", "succeeded", more);
+  CHECK(done.size() == 3);
+  CHECK(store.counts()["queued"] == 3);
+
+  CHECK(store.remove(ids[3]));
+  CHECK(!store.get(ids[3]));
+  CHECK(!store.find_idempotent("k3"));
+  CHECK(!fs::exists(store.job_dir(ids[3])));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("problem objects carry type URI, code, title, status and extensions") {
+  json p = make_problem(429, "queue-full", "full", {{"retry_after", 2}});
+  CHECK(p["type"] == "https://hocurve.dev/problems/queue-full");
+  CHECK(p["code"] == "queue-full");
+  CHECK(p["title"] == "Job queue is full");
+  CHECK(p["status"] == 429);
+  CHECK(p["retry_after"] == 2);
+}
