@@ -1,5 +1,7 @@
 #include "engine/curving/distance_field.hpp"
 
+#include "engine/core/error.hpp"
+
 #include <Eigen/Dense>
 
 #include <algorithm>
@@ -8,6 +10,7 @@
 #include <limits>
 #include <numbers>
 #include <queue>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -114,11 +117,16 @@ void unfold_obtuse(const Mesh& mesh, const Topology& T, int f, int k, std::vecto
 DistanceField feature_distance(const Mesh& mesh, const Topology& T, const Features& features,
                                const DistanceOptions& opt) {
   const int nv = mesh.num_vertices(), nf = mesh.num_faces();
+  if (T.FE.rows() != nf || static_cast<int>(T.vf_start.size()) != nv + 1)
+    throw InputError("feature distance", "topology was built for another mesh");
+  if (!features.vertex_feature.empty() && static_cast<int>(features.vertex_feature.size()) != nv)
+    throw InputError("feature distance", "features have " + std::to_string(features.vertex_feature.size()) +
+                                             " vertex marks for " + std::to_string(nv) + " vertices");
   DistanceField D;
   D.distance = Eigen::VectorXd::Constant(nv, kInf);
   using Item = std::pair<double, int>;  // (distance, vertex): ties pop the lower vertex first
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> heap;
-  for (int v = 0; v < nv && v < static_cast<int>(features.vertex_feature.size()); ++v)
+  for (int v = 0; v < static_cast<int>(features.vertex_feature.size()); ++v)
     if (features.vertex_feature[v]) {
       D.distance[v] = 0.0;
       heap.push({0.0, v});

@@ -34,6 +34,8 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
   if (!(opt.corner_angle_deg >= 0 && opt.corner_angle_deg <= 180))
     throw InputError("features", "corner_angle_deg must be in [0,180], got " + std::to_string(opt.corner_angle_deg));
   const int nv = mesh.num_vertices(), ne = T.num_edges();
+  if (T.FE.rows() != mesh.num_faces() || static_cast<int>(T.ve_start.size()) != nv + 1)
+    throw InputError("features", "topology was built for another mesh");
   Features R;
   R.edge_feature.assign(ne, 0);
   R.vertex_feature.assign(nv, 0);

@@ -38,6 +38,8 @@ Spread spread_of(std::vector<double> x) {
 Uniformity check_uniformity(const Mesh& mesh, const Topology& T, const UniformityOptions& opt) {
   if (!(opt.max_edge_ratio > 0) || !(opt.max_needle_share >= 0) || !(opt.needle_aspect > 0))
     throw InputError("uniformity", "thresholds must be positive");
+  if (T.FE.rows() != mesh.num_faces() || (T.num_edges() > 0 && T.E.maxCoeff() >= mesh.num_vertices()))
+    throw InputError("uniformity", "topology was built for another mesh");
   Uniformity U;
   std::vector<double> len(T.num_edges());
   for (int e = 0; e < T.num_edges(); ++e) len[e] = (mesh.V.row(T.E(e, 0)) - mesh.V.row(T.E(e, 1))).norm();

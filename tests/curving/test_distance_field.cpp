@@ -1,4 +1,5 @@
 // Feature distance field: fast marching and Dijkstra against exact geodesic distances.
+#include "engine/core/error.hpp"
 #include "engine/core/topology.hpp"
 #include "engine/curving/distance_field.hpp"
 #include "engine/curving/features.hpp"
@@ -176,6 +177,15 @@ TEST_CASE("no features: +infinity everywhere; component without features stays i
   // Cap centres: distance to the rim is the radius (up to the polygon's inscribed radius).
   CHECK(D2.max_finite <= 1.0 + 1e-12);
   CHECK(D2.max_finite >= std::cos(std::numbers::pi / 16) - 1e-12);
+}
+
+TEST_CASE("mismatched inputs are refused") {
+  const Mesh m = icosphere(1), other = icosphere(2);
+  const Topology T = build_topology(m.F, m.num_vertices());
+  Features F;
+  F.vertex_feature.assign(other.num_vertices(), 0);
+  CHECK_THROWS_AS(feature_distance(m, T, F), InputError);
+  CHECK_THROWS_AS(feature_distance(other, T, Features{}), InputError);
 }
 
 TEST_CASE("deterministic") {
