@@ -21,8 +21,12 @@ struct DistanceField {
 
 /// Distance from feature vertices (distance 0) over the surface. Fast marching uses the
 /// first-order planar-front update in each triangle whose characteristic enters through the
-/// opposite edge (upwind test), else edge updates; Dijkstra uses edge updates only.
-/// Deterministic (ties broken by vertex index).
+/// opposite edge (upwind test); obtuse corners also get virtual triangles by unfolding the
+/// neighbouring faces (Kimmel-Sethian), and edge updates are always tried. The result is never
+/// above Dijkstra's (edge paths only). Exact for a straight feature on a flat mesh up to the few
+/// vertices whose characteristic arrives through a later-accepted neighbour.
+/// Deterministic (ties broken by vertex index). Throws InputError if T or features belong
+/// to another mesh.
 DistanceField feature_distance(const Mesh& mesh, const Topology& T, const Features& features,
                                const DistanceOptions& opt = {});
 
