@@ -73,7 +73,9 @@ int main(int argc, char** argv) {
     run("torus 400x250", coarse_test::torus(400, 250, 1.0, 0.4), opt);
     const std::string bunny = std::string(HOCURVE_SHARED_DIR) + "/meshes/bunny_closed.obj";
     opt.target_faces = 264;
-    run("bunny_closed 4%", read_mesh_file(bunny).mesh, opt);
+    run("bunny_closed 4% f35", read_mesh_file(bunny).mesh, opt);
+    opt.feature_angle_deg = 60;  // organic surface: only real creases are features
+    run("bunny_closed 4% f60", read_mesh_file(bunny).mesh, opt);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_coarse: %s\n", e.what());
     return 1;

@@ -338,3 +338,20 @@ TEST_CASE("capped cylinder: rims kept by decimation and by the map") {
   CHECK(rim == 96);
   CHECK(kept == rim);
 }
+
+TEST_CASE("target at or above the input size: nothing collapses, the map is the identity") {
+  const Mesh fine = coarse_test::icosphere(2);
+  DecimateOptions opt;
+  opt.target_faces = fine.num_faces();
+  const DecimateResult R = decimate(fine, opt);
+  CHECK(R.reached_target);
+  CHECK(R.collapses == 0);
+  CHECK(R.coarse.F == fine.F);
+  for (int v = 0; v < fine.num_vertices(); ++v) {
+    const Eigen::Vector3d x = at(R.coarse.V, R.coarse.F, R.map.vertex_coarse_face[v], R.map.vertex_coarse_bary.row(v));
+    CHECK((x - fine.V.row(v).transpose()).norm() == 0);
+  }
+  const SurfacePoint p = coarse_to_fine(R.map, 3, Eigen::Vector3d(0.2, 0.3, 0.5));
+  CHECK(p.face == 3);
+  CHECK((p.bary - Eigen::Vector3d(0.2, 0.3, 0.5)).norm() < 1e-15);
+}
