@@ -217,7 +217,7 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
   if (k > 0) {
     std::vector<double> sd(dist.data(), dist.data() + k);
     std::sort(sd.begin(), sd.end());
-    sigma = std::max(sigma, 0.5 * sd[std::min(k, need) - 1]);
+    sigma = std::max(sigma, opt.sigma_reach * sd[std::min(k, need) - 1]);
   }
   if (opt.weight == WeightKind::Gaussian) {
     for (int i = 0; i < k; ++i) wt[i] = gauss(dist[i]);
@@ -227,7 +227,12 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
   }
 
   LocalFit trial = solve_height_fit(o, n0, h, P, wt, p, opt);
-  if (opt.refine_normal && trial.degree >= 1) {
+  // One-sided wedges (a vertex on a feature) have an area-weighted normal biased at O(h):
+  // those refit in the frame of the first fit's normal.
+  const bool one_sided = W.vertex_wedge_start[v + 1] - W.vertex_wedge_start[v] > 1;
+  // Only well-posed first fits (degree kept, pivots not tiny) give a trustworthy gradient.
+  const bool well_posed = trial.degree == p && trial.pivot_ratio >= opt.support_condition;
+  if ((opt.refine_normal || (one_sided && opt.refine_one_sided && well_posed)) && trial.degree >= 1) {
     Eigen::Vector3d n1 = n0 - trial.c[0] * trial.t1 - trial.c[1] * trial.t2;
     if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) trial = solve_height_fit(o, n1.normalized(), h, P, wt, p, opt);
   }
