@@ -40,6 +40,63 @@ std::string signal_name(int sig) {
   return "signal " + std::to_string(sig) + (d ? std::string(" (") + d + ")" : "");
 }
 
+/// Runs a short helper command (e.g. `hocurve info IN --json`) with the job's limits and a
+/// wall-clock timeout; returns its wait status (-1 on timeout or spawn failure) and stdout (≤ 1 MiB).
+std::pair<int, std::string> run_capture(const std::vector<std::string>& args, double timeout_s, rlim_t mem,
+                                        const std::string& stderr_path) {
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  int pipefd[2];
+  if (::pipe2(pipefd, O_CLOEXEC) != 0) return {-1, ""};
+  int errfd = ::open(stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  const pid_t parent = ::getpid();
+  pid_t pid = ::fork();
+  if (pid == 0) {
+    ::setpgid(0, 0);
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != parent) ::_exit(126);
+    sigset_t none;
+    sigemptyset(&none);
+    ::sigprocmask(SIG_SETMASK, &none, nullptr);
+    ::signal(SIGPIPE, SIG_DFL);
+    ::dup2(pipefd[1], 1);
+    if (errfd >= 0) ::dup2(errfd, 2);
+    ::syscall(SYS_close_range, 3u, ~0u, 0u);
+    struct rlimit rl = {mem, mem};
+    ::setrlimit(RLIMIT_AS, &rl);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  ::close(pipefd[1]);
+  if (errfd >= 0) ::close(errfd);
+  if (pid < 0) {
+    ::close(pipefd[0]);
+    return {-1, ""};
+  }
+  ::setpgid(pid, pid);
+  std::string out;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  bool timed_out = false;
+  for (;;) {
+    struct pollfd p = {pipefd[0], POLLIN, 0};
+    if (std::chrono::steady_clock::now() > deadline) {
+      timed_out = true;
+      ::kill(-pid, SIGKILL);
+      break;
+    }
+    if (::poll(&p, 1, 100) <= 0) continue;
+    char buf[8192];
+    ssize_t n = ::read(pipefd[0], buf, sizeof buf);
+    if (n <= 0) break;
+    if (out.size() < (1u << 20)) out.append(buf, (size_t)n);
+  }
+  ::close(pipefd[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return {timed_out ? -1 : status, out};
+}
+
 struct ProcessOutcome {
   enum Kind { kExited, kSignaled, kTimeout, kCancelled, kInterrupted, kSpawnFailed } kind = kExited;
   int code = 0;  // exit code or signal
@@ -218,6 +275,27 @@ void JobRunner::run_job(const std::string& id) {
                                   "job was interrupted " + std::to_string(job.attempts - 1) +
                                       " times (daemon restarts); giving up"));
     return;
+  }
+
+  // Input counts from `hocurve info --json` (cheap); a mesh it refuses fails the job right here.
+  const rlim_t mem_limit = (rlim_t)(config_.job_memory_mb * 1024 * 1024);
+  {
+    auto [st, out] = run_capture({worker_bin_, "info", input, "--json"}, std::min(config_.job_timeout, 60.0),
+                                 mem_limit, logfile);
+    if (st >= 0 && WIFEXITED(st) && WEXITSTATUS(st) == 0) {
+      auto info = nlohmann::json::parse(out, nullptr, false);
+      if (info.is_object()) {
+        nlohmann::json counts = nlohmann::json::object();
+        for (const char* k : {"vertices", "faces", "edges", "euler_characteristic", "format", "gzip"})
+          if (info.contains(k)) counts[k] = info[k];
+        store_.update(id, [&](Job& j) { j.input["counts"] = counts; });
+      }
+    } else if (st >= 0 && WIFEXITED(st) && WEXITSTATUS(st) == 3) {
+      const std::string why = last_line(logfile);
+      finish("failed", make_problem(422, "invalid-mesh", why.empty() ? "mesh refused" : why));
+      return;
+    }
+    // Anything else (an older worker without `info`, a crash): the main run reports it.
   }
 
   std::vector<std::string> args = worker_argv(worker_bin_, job.options, input, part, stats, config_.job_threads);

@@ -170,6 +170,13 @@ class ServerApi(unittest.TestCase):
         self.assertEqual(stats, done["stats"])
         if self.real:
             self.check_msh_order(msh, 3)
+            # Input counts (from `hocurve info`) against the independent MANIFEST.tsv.
+            with open(os.path.join(D.SHARED_DIR, "meshes", "MANIFEST.tsv")) as f:
+                rows = [l.rstrip("\n").split("\t") for l in f]
+            col = rows[0].index("triangles")
+            triangles = int([r for r in rows if r[0] == "sphere_surf_gmsh.stl"][0][col])
+            self.assertEqual(done["input"]["counts"]["faces"], triangles)
+            self.assertEqual(done["input"]["counts"]["euler_characteristic"], 2)
 
     def check_msh_order(self, msh, order):
         """Independent read-back with Gmsh's Python API: triangles of the requested order only."""

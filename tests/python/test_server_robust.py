@@ -11,6 +11,7 @@ import sys
 import tempfile
 import time
 import unittest
+import urllib.error
 import urllib.request
 
 BUILD_DIR = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.environ.get("HOCURVE_BUILD_DIR", "build"))
@@ -56,7 +57,8 @@ class Robust(unittest.TestCase):
 
     def test_200_concurrent_submissions_none_lost(self):
         d = self.daemon(self.ok_worker, ["--workers", "2", "--max-queue", "12", "--http-threads", "12"])
-        mesh = open(SPHERE, "rb").read()
+        with open(SPHERE, "rb") as f:
+            mesh = f.read()
 
         def client(k):
             c = Client(d.url, timeout=60)
@@ -170,13 +172,27 @@ class Robust(unittest.TestCase):
         data = os.path.join(self.tmp, "data")
         env = {"FAKE_SLEEP": "0.3", "FAKE_STEPS": "100"}
         slow = D.fake_worker(self.tmp, "slow.py", D.FAKE_OK)
-        d = self.daemon(slow, ["--workers", "1", "--shutdown-grace", "0.5"], data_dir=data, env=env)
+        d = self.daemon(slow, ["--workers", "1", "--shutdown-grace", "2"], data_dir=data, env=env)
         c = Client(d.url)
         a = c.submit(SPHERE, {"order": 2})
         b = c.submit(SPHERE, {"order": 2})
         self.assertTrue(wait_for(lambda: c.get(a["id"])["status"] == "running", 10))
         t0 = time.monotonic()
-        self.assertEqual(d.stop(signal.SIGTERM, timeout=20), 0)
+        d.proc.send_signal(signal.SIGTERM)
+
+        def readyz_status():
+            try:
+                urllib.request.urlopen(d.url + "/readyz", timeout=5)
+                return None
+            except urllib.error.HTTPError as e:
+                return e.code
+        # While draining: not ready, new jobs refused with 503 draining, status still served.
+        self.assertEqual(wait_for(readyz_status, 1.5, 0.02), 503)
+        with self.assertRaises(ProblemError) as e:
+            c.submit(SPHERE, {"order": 2})
+        self.assertEqual((e.exception.status, e.exception.type), (503, "draining"))
+        self.assertEqual(c.get(a["id"])["status"], "running")
+        self.assertEqual(d.proc.wait(20), 0)
         self.assertLess(time.monotonic() - t0, 10)
         msgs = [l.get("msg") for l in d.lines]
         self.assertIn("draining", msgs)
