@@ -221,8 +221,16 @@ TEST_CASE("output is identical for 1 and 2 threads; stats JSON carries every sta
     a = curve_mesh(m, o).mesh;
   }
   CurveResult rb;
+  std::vector<std::string> stages;
+  double last = -1;
+  bool monotone = true;
   {
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, 2);
+    o.progress = [&](const std::string& s, double f) {
+      stages.push_back(s);
+      monotone = monotone && f >= last;
+      last = f;
+    };
     rb = curve_mesh(m, o);
     b = rb.mesh;
   }
@@ -231,6 +239,9 @@ TEST_CASE("output is identical for 1 and 2 threads; stats JSON carries every sta
   CHECK(std::memcmp(a.edge_nodes.data(), b.edge_nodes.data(), sizeof(double) * a.edge_nodes.size()) == 0);
   CHECK(std::memcmp(a.face_nodes.data(), b.face_nodes.data(), sizeof(double) * a.face_nodes.size()) == 0);
 
+  CHECK(monotone);
+  CHECK(last == 1.0);
+  CHECK(stages.size() >= 8);
   const nlohmann::json j = stats_json(rb);
   for (const char* k : {"topology", "features", "distance", "uniformity", "support", "fits", "curve_fits",
                         "placement", "validity", "deviation"})
