@@ -123,6 +123,19 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
     Eigen::Vector3d t1 = (C.t + C.cy[0] * C.n1 + C.cz[0] * C.n2).normalized();
     if (t1.dot(t) > 0.5) solve(t1, C);
   }
+  // Sanity bound: along edge e the curve may not leave the chord by more than max_offset x
+  // the edge length; else one degree lower (degree 0 is the chord itself).
+  const Eigen::Vector3d far = mesh.V.row(T.other(e, v)).transpose();
+  const double len = (far - C.o).norm();
+  bool sane = C.cy.allFinite() && C.cz.allFinite();
+  for (int i = 1; i < 8 && sane && C.degree > 0; ++i) {
+    const Eigen::Vector3d x = C.o + (i / 8.0) * (far - C.o);
+    sane = (C.project(x) - x).norm() <= opt.max_offset * len;
+  }
+  if (!sane && C.degree > 0) {
+    if (p > 1) return fit_curve_at(mesh, T, feat, v, e, std::min(p - 1, C.degree), opt);
+    C.degree = 0;
+  }
   return C;
 }
 

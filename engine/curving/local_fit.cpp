@@ -79,6 +79,7 @@ double LocalFit::height(double u, double v) const {
 }
 
 Eigen::Vector3d LocalFit::project(const Eigen::Vector3d& x) const {
+  if (identity) return x;
   const Eigen::Vector3d d = x - o;
   const double u = d.dot(t1), v = d.dot(t2);
   return o + u * t1 + v * t2 + height(u, v) * n;
@@ -140,9 +141,47 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
   return F;
 }
 
+namespace {
+
+/// The fit moves no point of its wedge's faces further than opt.max_offset x sqrt(2 area)
+/// of that face (about half an edge): beyond that it extrapolates, not approximates.
+bool fit_is_sane(const Mesh& mesh, const Wedges& W, int w, const LocalFit& fit, const FitOptions& opt) {
+  if (!fit.c.allFinite()) return false;
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
+    const int f = W.wedge_faces[i];
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+    const double limit = opt.max_offset * std::sqrt((b - a).cross(c - a).norm());
+    for (int j = 0; j <= 4; ++j)
+      for (int k = 0; j + k <= 4; ++k) {
+        const Eigen::Vector3d x = a + (j / 4.0) * (b - a) + (k / 4.0) * (c - a);
+        if (!((fit.project(x) - x).norm() <= limit)) return false;
+      }
+  }
+  return true;
+}
+
+}  // namespace
+
 LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
                    const SupportPoints* support, const std::vector<int>& support_start,
                    const std::vector<int>& support_index, const FitOptions& opt) {
+  LocalFit fit = fit_wedge_unchecked(mesh, T, W, w, p, support, support_start, support_index, opt);
+  if (fit_is_sane(mesh, W, w, fit, opt)) return fit;
+  LocalFit low;
+  if (p > 1) {
+    low = fit_wedge(mesh, T, W, w, std::min(p - 1, std::max(fit.degree, 1)), support, support_start, support_index, opt);
+  } else {
+    low = fit;
+    low.identity = true;  // nothing sane: the corner keeps the straight triangles
+    low.degree = 0;
+  }
+  low.requested_degree = p;
+  return low;
+}
+
+LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
+                             const SupportPoints* support, const std::vector<int>& support_start,
+                             const std::vector<int>& support_index, const FitOptions& opt) {
   const int v = W.wedge_vertex[w];
   const Eigen::Vector3d o = mesh.V.row(v).transpose();
   // Area-weighted normal and mean incident edge length of the wedge.

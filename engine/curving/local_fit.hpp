@@ -61,7 +61,11 @@ struct FitOptions {
   /// lines (CAD strips) ~4e-6. Below it the fit also falls back to short_fit_degree.
   double support_condition = 1e-4;
   int short_fit_degree = 2;
-  bool support_everywhere = false;  ///< testing: add support points to every fit, not only short ones
+  bool support_everywhere = false;
+  /// Sanity bound (fitting.md 2.7, suggested extra): a fit that moves a point of its wedge's
+  /// faces by more than max_offset x sqrt(2 x face area) is refitted one degree lower, down to
+  /// the straight triangles. Catches extrapolating fits on CAD needles and thin parts.
+  double max_offset = 0.5;  ///< testing: add support points to every fit, not only short ones
 };
 
 /// Number of coefficients of the interpolatory basis u^j v^k, 1 <= j+k <= p.
@@ -82,6 +86,7 @@ struct LocalFit {
   /// Smallest / largest pivot of the column-scaled QR of the accepted solve: near 0 when the
   /// points barely determine the polynomial (e.g. all on two lines).
   double pivot_ratio = 0;
+  bool identity = false;        ///< no sane fit: project() returns its argument (straight)
 
   /// Height above the tangent plane at (u, v).
   double height(double u, double v) const;
@@ -115,6 +120,11 @@ struct FitResult {
 /// Fits every wedge of W at degree p (TBB-parallel, deterministic). support may be null.
 FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
                      const SupportPoints* support, const FitOptions& opt = {});
+
+/// The same without the sanity bound (used by fit_wedge).
+LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
+                             const SupportPoints* support, const std::vector<int>& support_start,
+                             const std::vector<int>& support_index, const FitOptions& opt);
 
 /// Fits one wedge (what fit_wedges does per item). support_by_face: CSR of support point
 /// indices per face (may be empty).
