@@ -268,7 +268,7 @@ Reason Decimator::check_and_collapse(const Plan& P) {
   if (new_deg < (vbnd[s] ? 1 : 3)) return Reason::valence;
   for (int c : wings)
     if (static_cast<int>(vf[c].size()) - 1 < (vbnd[c] ? 1 : 3)) return Reason::valence;
-  if (faces_alive - 2 < 4 || pf.size() > 60 || ns.size() + nr.size() > 200) return Reason::valence;
+  if (faces_alive - 2 < 4 || pf.size() > 120 || ns.size() + nr.size() > 240) return Reason::valence;
   // Feature curves must not shrink into a two-edge loop.
   if (feat.count(edge_key(s, r)))
     for (int c : wings)

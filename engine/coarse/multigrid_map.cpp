@@ -48,10 +48,10 @@ void step(const CoarseMap& M, int c, bool forward, int& face, Eigen::Vector3d& b
     }
   if (!found) throw std::logic_error("coarse map: face " + std::to_string(face) + " not in collapse record");
   const Eigen::Vector2d q = bary[0] * uv[src[0]] + bary[1] * uv[src[1]] + bary[2] * uv[src[2]];
-  std::array<int, 3> tris[64];
-  int ids[64];
+  std::array<int, 3> tris[128];
+  int ids[128];
   int nt = 0;
-  for (int k = f0; k < f1 && nt < 64; ++k) {
+  for (int k = f0; k < f1 && nt < 128; ++k) {
     if (forward && M.rec_face_removed[k]) continue;
     const auto& t = M.rec_face_local[k];
     tris[nt] = forward ? post_local(t, post) : std::array<int, 3>{t[0], t[1], t[2]};
