@@ -210,7 +210,16 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
     discard_body(req, res, reader);
     throw ApiError(411, "length-required", "uploads need a Content-Length header (chunked bodies are not accepted)");
   }
-  Upload up = receive_upload(req, reader, cap, app.store.uploads_dir());
+  Upload up;
+  bool reading = false;
+  try {
+    up = receive_upload(req, reader, cap, app.store.uploads_dir(), &reading);
+  } catch (const ApiError&) {
+    // Refused before reading (413 on Content-Length, 415): drop a small body, else close.
+    if (!reading) discard_body(req, res, reader);
+    else res.set_header("Connection", "close");
+    throw;
+  }
   app.metrics.upload_bytes += up.bytes;
   auto drop = [&](ApiError e) -> ApiError {
     remove_quietly(up.path);

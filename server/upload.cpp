@@ -95,7 +95,7 @@ void discard_body(const httplib::Request& req, httplib::Response& res, const htt
 }
 
 Upload receive_upload(const httplib::Request& req, const httplib::ContentReader& reader, std::uint64_t cap,
-                      const std::string& dir) {
+                      const std::string& dir, bool* reading) {
   if (!req.has_header("Content-Length"))
     throw ApiError(411, "length-required", "uploads need a Content-Length header (chunked bodies are not accepted)");
   const std::string length_text = req.get_header_value("Content-Length");
@@ -125,6 +125,7 @@ Upload receive_upload(const httplib::Request& req, const httplib::ContentReader&
   sink.cap = cap;
   sink.fd = ::open(up.path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (sink.fd < 0) throw ApiError(500, "internal", "cannot create an upload file in the data directory");
+  if (reading) *reading = true;
   bool ok = true;
   std::string bad_part;
   int mesh_parts = 0;

@@ -21,8 +21,9 @@ struct Upload {
 /// Reads the body of `req` into a new file under `dir`. Throws ApiError: 411 without Content-Length,
 /// 413 above `cap` bytes, 415 for a media type that is not a mesh or multipart/form-data, 400 for
 /// a malformed multipart body. The caller owns (and must delete) `path` afterwards.
+/// `*reading` becomes true once the body is being read (after that it must not be read again).
 Upload receive_upload(const httplib::Request& req, const httplib::ContentReader& reader, std::uint64_t cap,
-                      const std::string& dir);
+                      const std::string& dir, bool* reading = nullptr);
 
 /// Reads and drops a small unread body so the connection stays usable after an early error
 /// (bodies above `limit` are not read; the connection is closed instead).
