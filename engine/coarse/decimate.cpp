@@ -47,8 +47,26 @@ FeatureMarks mark_features(const Mesh& m, const Topology& T, const DecimateOptio
     fo.entity_borders = opt.entity_borders;
     Features f = detect_features(m, T, fo);
     fm.edge = std::move(f.edge_feature);
-    fm.vertex = std::move(f.vertex_feature);
     fm.corner = std::move(f.vertex_corner);
+    // Drop short open curves made only of sharp edges (boundaries and entity borders stay).
+    std::vector<char> drop(f.curves.size(), 0);
+    for (size_t c = 0; c < f.curves.size(); ++c) {
+      const auto& cv = f.curves[c];
+      drop[c] = cv.size() >= 2 && cv.front() != cv.back() &&
+                static_cast<int>(cv.size()) - 1 < opt.min_feature_curve_edges;
+    }
+    for (int e = 0; e < T.num_edges(); ++e) {
+      const int c = f.edge_curve[e];
+      const auto& ef = T.edge_faces[e];
+      if (c >= 0 && drop[c] && ef.size() == 2 && m.entity_of(ef[0]) == m.entity_of(ef[1])) fm.edge[e] = 0;
+    }
+    // Vertex flags from what is left; a vertex where the curves now end is a corner.
+    fm.vertex.assign(nv, 0);
+    std::vector<int> valence(nv, 0);
+    for (int e = 0; e < T.num_edges(); ++e)
+      if (fm.edge[e])
+        for (int j = 0; j < 2; ++j) fm.vertex[T.E(e, j)] = 1, ++valence[T.E(e, j)];
+    for (int v = 0; v < nv; ++v) fm.corner[v] = fm.vertex[v] && (fm.corner[v] || valence[v] != 2);
     return fm;
   }
   fm.edge.assign(T.num_edges(), 0);

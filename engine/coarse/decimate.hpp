@@ -15,6 +15,9 @@ struct DecimateOptions {
   double feature_angle_deg = 35.0;  ///< dihedral angle above which an edge is a feature
   double corner_angle_deg = 35.0;   ///< a feature vertex is a corner when its curve turns more than this
   bool entity_borders = true;       ///< edges between different face entities are features
+  /// Open sharp-edge curves with fewer edges than this are ignored: on scanned or organic
+  /// surfaces such fragments are noise, and their corners would pin the decimation.
+  int min_feature_curve_edges = 4;
   double min_angle_deg = 10.0;      ///< new triangles must keep this smallest 3D angle (or not get worse)
   double max_normal_change_deg = 60.0;  ///< a face's normal may turn at most this much in one collapse
   double uv_min_quality = 0.01;     ///< smallest accepted UV triangle quality in the flattened patches
