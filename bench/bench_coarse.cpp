@@ -1,6 +1,7 @@
 // Coarse lifting benchmark: decimation + bijective map timings on ~200k-triangle analytic
 // inputs and on shared meshes. Usage: bench_coarse [mesh-file target_faces [feature_angle]]
 #include "engine/coarse/decimate.hpp"
+#include "engine/core/topology.hpp"
 #include "engine/io/read_mesh.hpp"
 #include "tests/coarse/coarse_test_meshes.hpp"
 
@@ -24,6 +25,10 @@ void run(const std::string& name, const Mesh& fine, DecimateOptions opt) {
                 with_map, fine.num_faces(), R.coarse.num_faces(), cpu, R.seconds_total, R.seconds_flatten,
                 R.seconds_tracking);
     std::printf("    %s\n", R.message.c_str());
+    auto chi = [](const Mesh& m) {
+      return m.num_vertices() - build_topology(m.F, m.num_vertices()).num_edges() + m.num_faces();
+    };
+    std::printf("    Euler characteristic: input %d, coarse %d\n", chi(fine), chi(R.coarse));
     if (!with_map) continue;
     // Query throughput and round-trip accuracy on random coarse points.
     std::mt19937_64 rng(1);
