@@ -227,56 +227,55 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
   LocalFit fit;
   int k = 0;
   for (int attempt = 0; attempt < 3; ++attempt) {
-  if (attempt > 0) {
-    if (fit.degree >= p || S.rings >= opt.max_rings || static_cast<int>(S.vertices.size()) >= opt.max_points) break;
-    so.target_points = static_cast<int>(S.vertices.size()) + 1;  // one more ring
-    Stencil grown = grow_stencil(mesh, T, W, w, so);
-    if (grown.vertices.size() == S.vertices.size()) break;
-    S = std::move(grown);
-  }
+    if (attempt > 0) {
+      if (fit.degree >= p || S.rings >= opt.max_rings || static_cast<int>(S.vertices.size()) >= opt.max_points) break;
+      so.target_points = static_cast<int>(S.vertices.size()) + 1;  // one more ring
+      Stencil grown = grow_stencil(mesh, T, W, w, so);
+      if (grown.vertices.size() == S.vertices.size()) break;
+      S = std::move(grown);
+    }
+    // Normal cone: keep vertices seen by at least one region face facing like n0.
+    std::unordered_set<int> seen;  // per attempt
+    for (int f : S.faces)
+      if (face_normal(f).dot(n0) > opt.normal_cone)
+        for (int j = 0; j < 3; ++j) seen.insert(mesh.F(f, j));
+    pts.clear();
+    for (size_t i = 1; i < S.vertices.size(); ++i)
+      if (seen.count(S.vertices[i])) pts.push_back(S.vertices[i]);
+    k = static_cast<int>(pts.size());
+    P.resize(k, 3);
+    dist.resize(k);
+    for (int i = 0; i < k; ++i) {
+      P.row(i) = mesh.V.row(pts[i]);
+      dist[i] = (P.row(i).transpose() - o).norm();
+    }
+    // Weights.
+    wt.resize(k);
+    sigma = opt.sigma_factor * h;
+    if (k > 0) {
+      std::vector<double> sd(dist.data(), dist.data() + k);
+      std::sort(sd.begin(), sd.end());
+      sigma = std::max(sigma, opt.sigma_reach * sd[std::min(k, need) - 1]);
+    }
+    if (opt.weight == WeightKind::Gaussian) {
+      for (int i = 0; i < k; ++i) wt[i] = gauss(dist[i]);
+    } else {
+      double mean2 = k ? dist.squaredNorm() / k : 1.0;
+      for (int i = 0; i < k; ++i) wt[i] = std::pow(dist[i] * dist[i] / mean2 + 0.01, -0.5 * p);
+    }
 
-  // Normal cone: keep vertices seen by at least one region face facing like n0.
-  std::unordered_set<int> seen;  // per attempt
-  for (int f : S.faces)
-    if (face_normal(f).dot(n0) > opt.normal_cone)
-      for (int j = 0; j < 3; ++j) seen.insert(mesh.F(f, j));
-  pts.clear();
-  for (size_t i = 1; i < S.vertices.size(); ++i)
-    if (seen.count(S.vertices[i])) pts.push_back(S.vertices[i]);
-  k = static_cast<int>(pts.size());
-  P.resize(k, 3);
-  dist.resize(k);
-  for (int i = 0; i < k; ++i) {
-    P.row(i) = mesh.V.row(pts[i]);
-    dist[i] = (P.row(i).transpose() - o).norm();
-  }
-  // Weights.
-  wt.resize(k);
-  sigma = opt.sigma_factor * h;
-  if (k > 0) {
-    std::vector<double> sd(dist.data(), dist.data() + k);
-    std::sort(sd.begin(), sd.end());
-    sigma = std::max(sigma, opt.sigma_reach * sd[std::min(k, need) - 1]);
-  }
-  if (opt.weight == WeightKind::Gaussian) {
-    for (int i = 0; i < k; ++i) wt[i] = gauss(dist[i]);
-  } else {
-    double mean2 = k ? dist.squaredNorm() / k : 1.0;
-    for (int i = 0; i < k; ++i) wt[i] = std::pow(dist[i] * dist[i] / mean2 + 0.01, -0.5 * p);
-  }
-
-  LocalFit trial = solve_height_fit(o, n0, h, P, wt, p, opt);
-  // One-sided wedges (a vertex on a feature) have an area-weighted normal biased at O(h):
-  // those refit in the frame of the first fit's normal.
-  const bool one_sided = W.vertex_wedge_start[v + 1] - W.vertex_wedge_start[v] > 1;
-  // Only well-posed first fits (degree kept, pivots not tiny) give a trustworthy gradient.
-  const bool well_posed = trial.degree == p && trial.pivot_ratio >= opt.support_condition;
-  if ((opt.refine_normal || (one_sided && opt.refine_one_sided && well_posed)) && trial.degree >= 1) {
-    Eigen::Vector3d n1 = n0 - trial.c[0] * trial.t1 - trial.c[1] * trial.t2;
-    if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) trial = solve_height_fit(o, n1.normalized(), h, P, wt, p, opt);
-  }
-  trial.rings = S.rings;
-  if (attempt == 0 || trial.degree > fit.degree) fit = trial;
+    LocalFit trial = solve_height_fit(o, n0, h, P, wt, p, opt);
+    // One-sided wedges (a vertex on a feature) have an area-weighted normal biased at O(h):
+    // those refit in the frame of the first fit's normal.
+    const bool one_sided = W.vertex_wedge_start[v + 1] - W.vertex_wedge_start[v] > 1;
+    // Only well-posed first fits (degree kept, pivots not tiny) give a trustworthy gradient.
+    const bool well_posed = trial.degree == p && trial.pivot_ratio >= opt.support_condition;
+    if ((opt.refine_normal || (one_sided && opt.refine_one_sided && well_posed)) && trial.degree >= 1) {
+      Eigen::Vector3d n1 = n0 - trial.c[0] * trial.t1 - trial.c[1] * trial.t2;
+      if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) trial = solve_height_fit(o, n1.normalized(), h, P, wt, p, opt);
+    }
+    trial.rings = S.rings;
+    if (attempt == 0 || trial.degree > fit.degree) fit = trial;
   }
 
   const bool short_of_vertices = fit.degree < p || fit.pivot_ratio < opt.support_condition;
