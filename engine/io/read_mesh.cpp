@@ -138,8 +138,10 @@ std::string gunzip(std::string_view bytes, const std::string& name) {
   if (is_gzip(bytes) && bytes.size() >= 18) {
     std::uint32_t isize = 0;
     std::memcpy(&isize, bytes.data() + bytes.size() - 4, 4);
-    if (isize > 0) guess = isize;
+    // Deflate cannot exceed ~1032:1; a corrupt trailer must not make us allocate gigabytes.
+    if (isize > 0) guess = std::min<std::size_t>(isize, bytes.size() * 1032);
   }
+  guess = std::min<std::size_t>(guess, std::size_t(1) << 28);  // beyond that, grow by doubling
   out.resize(std::max<std::size_t>(guess, 1024));
   zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
   std::size_t in_left = bytes.size(), produced = 0;
