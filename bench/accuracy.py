@@ -10,6 +10,7 @@ Every mesh is measured by bench/measure_error.py (the elements' own Lagrange map
 
 Usage: accuracy.py [--out DIR] [--hocurve BIN] [--shapes sphere,torus] [--orders 1,2,3,4,6]
                    [--sizes 3] [--json FILE] [--no-hocurve] [--no-baselines] [--threads N]
+                   [--ascii-stl]
 """
 import argparse
 import glob
@@ -94,7 +95,7 @@ def run(args):
     for name in args.shapes.split(","):
         dist = None
         for size in shapes.SIZES[name][:args.sizes]:
-            stl = shapes.make_stl(name, size, args.out)
+            stl = shapes.make_stl(name, size, args.out, ascii=args.ascii_stl)
             h = shapes.size_value(name, size)
             dist = me.distance_function(name, stl)
             tag = "%s_%s" % (name, shapes.size_label(size))
@@ -216,6 +217,8 @@ def main(argv):
     ap.add_argument("--q", type=int, help="sampling lattice order (default max(2p, 6))")
     ap.add_argument("--threads", type=int, help="hocurve --threads")
     ap.add_argument("--json", help="write all figures as JSON here")
+    ap.add_argument("--ascii-stl", action="store_true",
+                    help="double-precision ASCII STL input instead of binary (float32) STL")
     ap.add_argument("--no-hocurve", action="store_true")
     ap.add_argument("--no-baselines", action="store_true")
     a = ap.parse_args(argv)

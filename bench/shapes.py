@@ -112,13 +112,14 @@ def mesh_occ(name, h):
     return m
 
 
-def make_stl(name, size, outdir=DEFAULT_OUT):
+def make_stl(name, size, outdir=DEFAULT_OUT, ascii=False):
     """Return the path of the binary STL of shape `name` at SIZES entry `size`, creating it if absent.
 
-    Next to it, NAME.faces.npz keeps the CAD face tag of every triangle (used to measure distances
+    ascii=True writes ASCII STL with full double precision (binary STL rounds vertices to float32,
+    ~5e-8 on the unit sphere, which floors the achievable error). Next to it, NAME.faces.npz keeps the CAD face tag of every triangle (used to measure distances
     to STEP parts face by face) and the mesh size h."""
     os.makedirs(outdir, exist_ok=True)
-    path = os.path.join(outdir, "%s_%s.stl" % (name, size_label(size)))
+    path = os.path.join(outdir, "%s_%s%s.stl" % (name, size_label(size), "_ascii" if ascii else ""))
     if os.path.exists(path) and os.path.exists(sidecar_path(path)):
         return path
     gmsh = gmsh_init()
@@ -144,13 +145,31 @@ def make_stl(name, size, outdir=DEFAULT_OUT):
     gmsh.model.remove()
     F = np.concatenate(F)
     face = np.concatenate(face)
-    write_binary_stl(path, V, F)
+    (write_ascii_stl if ascii else write_binary_stl)(path, V, F)
     np.savez(sidecar_path(path), V=V, F=F, face=face, Fuv=np.concatenate(Fuv), h=h)
     return path
 
 
 def sidecar_path(stl_path):
     return stl_path[:-4] + ".faces.npz"
+
+
+def write_ascii_stl(path, V, F):
+    """Write vertices V and triangles F as ASCII STL with 17 significant digits, atomically."""
+    V = np.asarray(V, dtype=np.float64)
+    P = V[np.asarray(F, dtype=np.int64)]
+    n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        f.write("solid hocurve_bench\n")
+        for t, nn in zip(P, n):
+            f.write("facet normal %.17g %.17g %.17g\n outer loop\n" % tuple(nn))
+            for v in t:
+                f.write("  vertex %.17g %.17g %.17g\n" % tuple(v))
+            f.write(" endloop\nendfacet\n")
+        f.write("endsolid hocurve_bench\n")
+    os.replace(tmp, path)
 
 
 def write_binary_stl(path, V, F):
