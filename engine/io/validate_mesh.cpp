@@ -147,9 +147,17 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
 
   // --- topology: boundary, non-manifold edges and vertices -------------------------------------
   const Topology T = build_topology(m.F, nv);
+  // One flat copy of edge -> faces: the loops below touch it many times, and one vector per
+  // edge costs a cache miss per access on large meshes.
+  std::vector<int> ef_start(T.num_edges() + 1, 0), ef_items;
+  for (int e = 0; e < T.num_edges(); ++e) ef_start[e + 1] = ef_start[e] + static_cast<int>(T.edge_faces[e].size());
+  ef_items.reserve(ef_start.back());
+  for (const auto& ef : T.edge_faces) ef_items.insert(ef_items.end(), ef.begin(), ef.end());
+  auto faces_on = [&](int e) { return std::pair<const int*, const int*>{ef_items.data() + ef_start[e], ef_items.data() + ef_start[e + 1]}; };
+  auto n_faces_on = [&](int e) { return ef_start[e + 1] - ef_start[e]; };
   int first_nm_edge = -1;
   for (int e = 0; e < T.num_edges(); ++e) {
-    const auto k = T.edge_faces[e].size();
+    const auto k = n_faces_on(e);
     if (k == 1) ++r.boundary_edges;
     if (k > 2) {
       ++r.nonmanifold_edges;
@@ -174,10 +182,10 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
       auto local = [&](int f) { return static_cast<int>(std::lower_bound(fb, fe, f) - fb); };
       int groups = k;
       const auto [eb, ee] = T.edges_of(v);
-      for (const int* e = eb; e != ee; ++e) {
-        const auto& ef = T.edge_faces[*e];
-        for (std::size_t i = 1; i < ef.size(); ++i) {
-          const int x = find(local(ef[0])), y = find(local(ef[i]));
+      for (const int* e = eb; e != ee && groups > 1; ++e) {
+        const auto [b0, b1] = faces_on(*e);
+        for (const int* g = b0 + 1; g < b1; ++g) {
+          const int x = find(local(*b0)), y = find(local(*g));
           if (x != y) parent[x] = y, --groups;
         }
       }
@@ -203,9 +211,11 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
     comp[s] = c;
     for (std::size_t q = 0; q < queue.size(); ++q) {
       const int f = queue[q];
-      for (int j = 0; j < 3; ++j)
-        for (int g : T.edge_faces[T.FE(f, j)])
-          if (comp[g] < 0) comp[g] = c, queue.push_back(g);
+      for (int j = 0; j < 3; ++j) {
+        const auto [b0, b1] = faces_on(T.FE(f, j));
+        for (const int* g = b0; g < b1; ++g)
+          if (comp[*g] < 0) comp[*g] = c, queue.push_back(*g);
+      }
     }
   }
   if (r.components > 1) warn(std::to_string(r.components) + " connected components");
@@ -225,8 +235,8 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
         const int f = queue[q];
         for (int j = 0; j < 3; ++j) {
           const int e = T.FE(f, j);
-          const auto& ef = T.edge_faces[e];
-          if (ef.size() != 2) continue;
+          if (n_faces_on(e) != 2) continue;
+          const int* ef = faces_on(e).first;
           const int g = ef[0] == f ? ef[1] : ef[0];
           const int a = m.F(f, j), b = m.F(f, (j + 1) % 3);
           // Consistent neighbours walk the shared edge in opposite directions.
@@ -250,7 +260,7 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
         double vol = 0;
         for (int f : queue) {
           for (int j = 0; j < 3; ++j)
-            if (T.edge_faces[T.FE(f, j)].size() != 2) closed = false;
+            if (n_faces_on(T.FE(f, j)) != 2) closed = false;
           const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
           vol += (flip_final[f] ? -1.0 : 1.0) * a.dot(b.cross(c));
         }
