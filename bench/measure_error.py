@@ -285,6 +285,12 @@ class StepDistance:
                 conv = step < 1e-10 * self.margin
                 ok &= conv
                 dd = np.linalg.norm(X - S, axis=1)
+                # Guard against a far stationary point: the surface points of the element's
+                # vertices bound the true distance from above.
+                Sv = np.asarray(gmsh.model.getValue(2, f, uvv.reshape(-1, 2).ravel().tolist()))
+                Sv = Sv.reshape(len(esel), 1, 3, 3)
+                vbound = np.linalg.norm(X.reshape(len(esel), npts, 1, 3) - Sv, axis=3).min(2).ravel()
+                ok &= dd <= vbound * (1 + 1e-12) + 1e-300
                 bad = np.nonzero(~ok)[0]
                 if os.environ.get("HOCURVE_BENCH_DEBUG"):
                     print("face %d: %d samples, seam %d, noconv %d, outside %d" % (
@@ -319,11 +325,24 @@ def distance_function(name, stl=None):
     sd = StepDistance(name, shapes.sidecar_path(stl) if stl else None)
 
     def f(P, Xv=None, uv=None):
-        if Xv is None:
+        # Gauss-Newton needs good start parameters; without the sidecar's, use OCC directly
+        # (a blend of projected vertex parameters can converge to a far stationary point).
+        if Xv is None or sd.vertex_faces is None:
             return sd(P)
         M, unknown = sd.element_faces(Xv)
         lam = np.column_stack([1 - uv[:, 0] - uv[:, 1], uv[:, 0], uv[:, 1]])
-        return sd.element_distance(P, Xv, lam, M, unknown)
+        npts = len(uv)
+        d = np.empty(len(P))
+        ps = np.repeat(unknown, npts)
+        if (~unknown).any():  # vertices found in the input: Gauss-Newton from known parameters
+            k = np.nonzero(~unknown)[0]
+            vids = sd.last_vertices
+            sd.last_vertices = vids[k]
+            d[~ps] = sd.element_distance(P[~ps], Xv[k], lam, M[k], np.zeros(len(k), bool))
+            sd.last_vertices = vids
+        if unknown.any():  # moved vertices: OCC projection on every face near the point
+            d[ps] = sd(P[ps])
+        return d
     f.step = True
     return f
 

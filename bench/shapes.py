@@ -82,7 +82,7 @@ def build_occ(name, model_name=None):
 
 def bbox_diagonal(name):
     gmsh = gmsh_init()
-    m = build_occ(name, "bbox_" + name)
+    build_occ(name, "bbox_" + name)
     x0, y0, z0, x1, y1, z1 = gmsh.model.getBoundingBox(-1, -1)
     gmsh.model.remove()
     return float(np.linalg.norm([x1 - x0, y1 - y0, z1 - z0]))

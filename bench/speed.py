@@ -12,10 +12,8 @@ Usage: speed.py [--out DIR] [--hocurve BIN] [--threads 2] [--order 4] [--gmsh-bi
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from bench import shapes  # noqa: E402
