@@ -28,7 +28,7 @@ LoadedInput load_input(const std::string& path, const Progress& progress) {
   in.mesh = std::move(r.mesh);
   in.read = std::move(r.report);
   double t1 = now_seconds();
-  progress("validate", 0.0);
+  progress("validate", 0.05);
   in.validation = validate_mesh(in.mesh);
   in.read_seconds = t1 - t0;
   in.validate_seconds = now_seconds() - t1;

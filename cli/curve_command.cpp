@@ -72,14 +72,15 @@ int run_curve(int argc, char** argv) {
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                     static_cast<size_t>(a.get_int("threads", 1, 1, 1024)));
   Progress progress{a.has("progress")};
-  opt.progress = [&](const std::string& stage, double f) { progress(stage, f); };
+  // One 0..1 scale for the whole command: load 0-0.1, curving 0.1-0.9, writing 0.9-1.
+  opt.progress = [&](const std::string& stage, double f) { progress(stage, 0.1 + 0.8 * f); };
 
   const double t0 = now_seconds();
   LoadedInput in = load_input(input, progress);
   const double t1 = now_seconds();
   CurveResult res = curve_mesh(in.mesh, opt);
   const double t2 = now_seconds();
-  progress("write", 0.0);
+  progress("write", 0.9);
   write_msh_file(res.mesh, output, msh);
   const double t3 = now_seconds();
   progress("done", 1.0);
