@@ -6,6 +6,7 @@
 
 #include <doctest/doctest.h>
 #include <gmsh.h>
+#include "gmsh_session.hpp"
 
 #include <random>
 #include <vector>
@@ -14,13 +15,6 @@ using namespace hocurve;
 
 namespace {
 
-struct GmshSession {
-  GmshSession() {
-    gmsh::initialize();
-    gmsh::option::setNumber("General.Terminal", 0);
-  }
-  ~GmshSession() { gmsh::finalize(); }
-};
 
 // Random points in the reference triangle plus a few on its boundary.
 Eigen::MatrixXd sample_points(int n, unsigned seed) {

@@ -5,6 +5,7 @@
 
 #include <doctest/doctest.h>
 #include <gmsh.h>
+#include "gmsh_session.hpp"
 #include <Eigen/QR>
 
 #include <algorithm>
@@ -16,13 +17,6 @@ using namespace hocurve;
 
 namespace {
 
-struct GmshSession {
-  GmshSession() {
-    gmsh::initialize();
-    gmsh::option::setNumber("General.Terminal", 0);
-  }
-  ~GmshSession() { gmsh::finalize(); }
-};
 
 // Gmsh's reference coordinates of an element type, #nodes x dim.
 Eigen::MatrixXd gmsh_reference(int type, int dim, int& order, int& nnodes) {

@@ -9,6 +9,7 @@
 
 #include <doctest/doctest.h>
 #include <gmsh.h>
+#include "gmsh_session.hpp"
 
 #include <chrono>
 #include <cstdio>
@@ -24,13 +25,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct GmshSession {
-  GmshSession() {
-    gmsh::initialize();
-    gmsh::option::setNumber("General.Terminal", 0);
-  }
-  ~GmshSession() { gmsh::finalize(); }
-};
 
 // Octahedron split into 4 triangles per face (32 faces), three entities and two groups.
 Mesh test_mesh() {

@@ -7,6 +7,7 @@
 #include "io/io_test_util.hpp"
 
 #include <gmsh.h>
+#include "gmsh_session.hpp"
 
 #include <map>
 #include <set>
@@ -15,13 +16,6 @@ using namespace hocurve;
 
 namespace {
 
-struct GmshSession {
-  GmshSession() {
-    gmsh::initialize();
-    gmsh::option::setNumber("General.Terminal", 0);
-  }
-  ~GmshSession() { gmsh::finalize(); }
-};
 
 /// Two discrete surfaces (entity 5: two triangles of a unit square at z=0; entity 7: one
 /// triangle at z=1), a discrete curve 3 with one line element, physical groups "bottom" (11 ->
