@@ -67,7 +67,7 @@ WeldResult<Real> weld_impl(const Real* xyz, std::size_t n) {
   }
   r.points.resize(keys.size());
   if (!keys.empty())  // memcpy from an empty vector's null data() is undefined
-  std::memcpy(r.points.data(), keys.data(), keys.size() * sizeof(U));
+    std::memcpy(r.points.data(), keys.data(), keys.size() * sizeof(U));
   return r;
 }
 
