@@ -22,19 +22,10 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
                             const CurveFitResult* curves, int p, NodeDistribution d) {
   const auto t0 = std::chrono::steady_clock::now();
   PlacementResult R;
+  R.mesh = high_order_frame(mesh, T, p, d);
   HighOrderMesh& hm = R.mesh;
-  hm.order = p;
-  hm.distribution = d;
-  hm.V = mesh.V;
-  hm.F = mesh.F;
-  hm.E = T.E;
-  hm.FE = T.FE;
-  hm.face_entity = mesh.face_entity;
-  hm.physicals = mesh.physicals;
   const int ne = T.num_edges(), nf = mesh.num_faces();
-  const int npe = p - 1, npf = (p - 1) * (p - 2) / 2;
-  hm.edge_nodes.resize(static_cast<Eigen::Index>(ne) * npe, 3);
-  hm.face_nodes.resize(static_cast<Eigen::Index>(nf) * npf, 3);
+  const int npe = hm.nodes_per_edge(), npf = hm.nodes_per_face();
   if (p <= 1) return R;
   const Eigen::VectorXd line = line_reference_nodes(p, d);
   const Eigen::MatrixXd tri = triangle_reference_nodes(p, d);

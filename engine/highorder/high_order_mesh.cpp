@@ -9,6 +9,21 @@
 
 namespace hocurve {
 
+HighOrderMesh high_order_frame(const Mesh& mesh, const Topology& T, int p, NodeDistribution d) {
+  HighOrderMesh hm;
+  hm.order = p;
+  hm.distribution = d;
+  hm.V = mesh.V;
+  hm.F = mesh.F;
+  hm.E = T.E;
+  hm.FE = T.FE;
+  hm.face_entity = mesh.face_entity;
+  hm.physicals = mesh.physicals;
+  hm.edge_nodes.resize(static_cast<Eigen::Index>(T.num_edges()) * hm.nodes_per_edge(), 3);
+  hm.face_nodes.resize(static_cast<Eigen::Index>(mesh.num_faces()) * hm.nodes_per_face(), 3);
+  return hm;
+}
+
 HighOrderMesh make_straight_high_order(const Mesh& mesh, const Topology& T, int p, NodeDistribution d) {
   if (p < 1 || p > 10)
     throw UsageError("make_straight_high_order: order " + std::to_string(p) + " out of range 1..10");
@@ -26,21 +41,12 @@ HighOrderMesh make_straight_high_order(const Mesh& mesh, const Topology& T, int 
     throw InputError("face_entity", "has " + std::to_string(mesh.face_entity.size()) + " entries for " +
                                         std::to_string(mesh.F.rows()) + " faces");
 
-  HighOrderMesh hm;
-  hm.order = p;
-  hm.distribution = d;
-  hm.V = mesh.V;
-  hm.F = mesh.F;
-  hm.E = T.E;
-  hm.FE = T.FE;
-  hm.face_entity = mesh.face_entity;
-  hm.physicals = mesh.physicals;
+  HighOrderMesh hm = high_order_frame(mesh, T, p, d);
 
   // Edge nodes: the 1D distribution walked from E(e,0) to E(e,1). The triangle's Lobatto nodes
   // on its edges are exactly these 1D points, so faces and edges agree.
   const int ne = T.num_edges(), npe = p - 1;
   const Eigen::VectorXd t = line_reference_nodes(p, d);
-  hm.edge_nodes.resize(static_cast<Eigen::Index>(ne) * npe, 3);
   for (int e = 0; e < ne; ++e) {
     const Eigen::RowVector3d a = mesh.V.row(T.E(e, 0)), b = mesh.V.row(T.E(e, 1));
     for (int k = 1; k < p; ++k) hm.edge_nodes.row(static_cast<Eigen::Index>(e) * npe + k - 1) = a + t[k] * (b - a);
@@ -48,7 +54,6 @@ HighOrderMesh make_straight_high_order(const Mesh& mesh, const Topology& T, int 
 
   // Face nodes: the reference interior nodes (rows 3p.. in Gmsh order) mapped affinely.
   const int npf = hm.nodes_per_face();
-  hm.face_nodes.resize(mesh.F.rows() * npf, 3);
   if (npf > 0) {
     const Eigen::MatrixXd ref = triangle_reference_nodes(p, d);
     for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {

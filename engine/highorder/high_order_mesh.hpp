@@ -37,6 +37,10 @@ struct HighOrderMesh {
   int entity_of(int f) const { return face_entity.size() ? face_entity[f] : 1; }
 };
 
+/// Order-p mesh carrying mesh's vertices, faces, entities and groups and T's edges, with
+/// edge_nodes and face_nodes sized but not yet filled: the frame every node placement fills.
+HighOrderMesh high_order_frame(const Mesh& mesh, const Topology& T, int p, NodeDistribution d);
+
 /// Order-p mesh with every high-order node on the straight triangles (the `linear` baseline),
 /// at the reference positions of distribution d. Topology T must be build_topology(mesh.F).
 HighOrderMesh make_straight_high_order(const Mesh& mesh, const Topology& T, int p,
