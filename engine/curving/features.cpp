@@ -3,6 +3,7 @@
 #include "engine/core/error.hpp"
 
 #include <Eigen/Geometry>
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -26,6 +27,55 @@ double angle_deg(const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
   return std::atan2(u.cross(v).norm(), u.dot(v)) * 180.0 / std::numbers::pi;
 }
 
+/// Kink angle in degrees along interior edge e: a Gaussian-weighted least-squares fit of
+/// z = quadric(x, y) + k |y| + k' x |y|, in the frame (x along the edge, y across it, z along the
+/// mean normal) scaled by the edge length, to the vertices of three face rings around the edge
+/// grown without crossing the edges in `wall` (features already found); returns 2 atan|k|.
+double kink_angle_deg(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e) {
+  const int a = T.E(e, 0), b = T.E(e, 1);
+  const Eigen::Vector3d pa = mesh.V.row(a), pb = mesh.V.row(b);
+  const double h = (pb - pa).norm();
+  Eigen::Vector3d n = face_normal(mesh, T.edge_faces[e][0]).normalized() +
+                      face_normal(mesh, T.edge_faces[e][1]).normalized();
+  if (!(h > 0) || !(n.norm() > 1e-12)) return 0.0;
+  n.normalize();
+  Eigen::Vector3d t = pb - pa;
+  t = (t - t.dot(n) * n).normalized();
+  const Eigen::Vector3d s = n.cross(t), o = 0.5 * (pa + pb);
+  // Face rings: each step adds the faces across the region's non-wall edges.
+  std::vector<int> faces(T.edge_faces[e].begin(), T.edge_faces[e].end());
+  for (int step = 0, begin = 0; step < 3; ++step) {
+    const int end = static_cast<int>(faces.size());
+    for (int i = begin; i < end; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const int g = T.FE(faces[i], j);
+        if (wall[g] || T.edge_faces[g].size() != 2) continue;
+        for (int f : T.edge_faces[g])
+          if (std::find(faces.begin(), faces.end(), f) == faces.end()) faces.push_back(f);
+      }
+    begin = end;
+  }
+  std::vector<int> ring;
+  for (int f : faces)
+    for (int j = 0; j < 3; ++j) ring.push_back(mesh.F(f, j));
+  std::sort(ring.begin(), ring.end());
+  ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+  const int k = static_cast<int>(ring.size());
+  if (k < 10) return 0.0;
+  Eigen::MatrixXd A(k, 8);
+  Eigen::VectorXd z(k);
+  for (int i = 0; i < k; ++i) {
+    const Eigen::Vector3d d = (Eigen::Vector3d(mesh.V.row(ring[i])) - o) / h;
+    const double x = d.dot(t), y = d.dot(s), w = std::exp(-(x * x + y * y) / (2 * 1.5 * 1.5));
+    A.row(i) << 1, x, y, x * x, x * y, y * y, std::abs(y), x * std::abs(y);
+    A.row(i) *= w;
+    z[i] = w * d.dot(n);
+  }
+  const Eigen::VectorXd c = A.colPivHouseholderQr().solve(z);
+  if (!c.allFinite()) return 0.0;
+  return 2 * std::atan(std::abs(c[6])) * 180.0 / std::numbers::pi;
+}
+
 }  // namespace
 
 Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptions& opt) {
@@ -43,7 +93,11 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
   R.edge_curve.assign(ne, -1);
 
   // --- 1. feature edges ---------------------------------------------------------------------
+  // Dihedral angle > angle_deg (180: none); then edges in [weak_angle_deg, angle_deg] that the
+  // kink test confirms, with the first ones as walls its stencils do not cross.
   std::vector<char> only_sharp(ne, 0);  // feature only because of its dihedral angle
+  std::vector<double> theta(ne, 0.0);
+  const bool dihedral = opt.angle_deg < 180;
   for (int e = 0; e < ne; ++e) {
     const auto& ef = T.edge_faces[e];
     bool feat = false;
@@ -56,18 +110,28 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
         ++R.entity_border_edges;
         if (opt.entity_borders) feat = true;
       }
-      const Eigen::Vector3d n0 = face_normal(mesh, ef[0]), n1 = face_normal(mesh, ef[1]);
-      if (angle_deg(n0, n1) > opt.angle_deg) {
+      theta[e] = angle_deg(face_normal(mesh, ef[0]), face_normal(mesh, ef[1]));
+      if (dihedral && theta[e] > opt.angle_deg) {
         ++R.sharp_edges;
         only_sharp[e] = !feat;
         feat = true;
       }
     }
-    if (feat) {
-      R.edge_feature[e] = 1;
-      ++R.feature_edges;
+    R.edge_feature[e] = feat;
+  }
+  if (dihedral && opt.weak_angle_deg < opt.angle_deg) {
+    const std::vector<char> wall = R.edge_feature;
+    for (int e = 0; e < ne; ++e) {
+      if (wall[e] || T.edge_faces[e].size() != 2 || theta[e] < opt.weak_angle_deg || theta[e] > opt.angle_deg) continue;
+      const double kink = kink_angle_deg(mesh, T, wall, e);
+      if (kink >= opt.kink_angle_deg && kink >= 0.5 * theta[e]) {
+        ++R.sharp_edges, ++R.kink_edges;
+        only_sharp[e] = 1;
+        R.edge_feature[e] = 1;
+      }
     }
   }
+  for (int e = 0; e < ne; ++e) R.feature_edges += R.edge_feature[e];
 
   auto feature_edges_of = [&](int v, int* out) {  // fills up to 2, returns the valence
     int k = 0;

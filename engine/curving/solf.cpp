@@ -2,6 +2,7 @@
 
 #include "engine/core/error.hpp"
 #include "engine/core/topology.hpp"
+#include "engine/curving/band_fit.hpp"
 #include "engine/curving/place_nodes.hpp"
 #include "engine/curving/stencil.hpp"
 
@@ -109,6 +110,7 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     R.wedges = W.num_wedges();
     if (p >= 2) {
       R.fits = fit_wedges(mesh, T, W, p, R.support_used ? &support : nullptr, opt.fit);
+      R.band_wedges = refit_band_wedges(mesh, T, W, R.features, p, opt.fit, R.fits.fits);
       progress("curve fits", 0.6);
       R.curve_fits = fit_feature_curves(mesh, T, R.features, p, opt.fit);
     } else {

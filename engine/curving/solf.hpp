@@ -59,6 +59,7 @@ struct CurveResult {
   long long support_points = 0;
   double support_seconds = 0;
   long long wedges = 0;
+  long long band_wedges = 0;      ///< wedges in one-triangle bands between feature curves (ruled fits)
   FitResult fits;                 ///< per-wedge fits (the fits vector itself is kept for callers)
   CurveFitResult curve_fits;
   long long curve_edges = 0;

@@ -13,7 +13,7 @@ nlohmann::json stats_json(const CurveResult& r) {
   const Features& F = r.features;
   long long feature_edges = 0;
   for (char c : F.edge_feature) feature_edges += c ? 1 : 0;
-  j["features"] = {{"feature_edges", feature_edges},  {"sharp_edges", F.sharp_edges},
+  j["features"] = {{"feature_edges", feature_edges},  {"sharp_edges", F.sharp_edges}, {"kink_edges", F.kink_edges},
                    {"boundary_edges", F.boundary_edges}, {"nonmanifold_edges", F.nonmanifold_edges},
                    {"entity_border_edges", F.entity_border_edges}, {"corners", F.corners},
                    {"curves", F.curves.size()},         {"seconds", r.features_seconds}};
@@ -31,7 +31,7 @@ nlohmann::json stats_json(const CurveResult& r) {
   json hist = json::object();
   for (size_t d = 0; d < r.fits.degree_histogram.size(); ++d)
     hist[std::to_string(d)] = r.fits.degree_histogram[d];
-  j["fits"] = {{"wedges", r.wedges},
+  j["fits"] = {{"wedges", r.wedges}, {"band_wedges", r.band_wedges},
                {"degree_histogram", hist},
                {"downgraded", r.fits.downgraded},
                {"with_support", r.fits.with_support},

@@ -136,7 +136,52 @@ TEST_CASE("cube: 12 sharp curves between 8 corners") {
   // Threshold: a 90° dihedral is not sharp for a threshold above 90°.
   FeatureOptions loose;
   loose.angle_deg = 91;
+  loose.weak_angle_deg = 91;  // and no kink test below it
   CHECK(detect(m, loose).feature_edges == 0);
+}
+
+TEST_CASE("kink test: a 25 degree crease is sharp, a coarse 16-gon cylinder is not") {
+  // A folded jittered sheet: z = 0 for y <= 0, rising at 25 degrees for y > 0 (crease on y = 0).
+  const int n = 12;
+  Mesh m;
+  m.V.resize((n + 1) * (n + 1), 3);
+  m.F.resize(2 * n * n, 3);
+  const double slope = std::tan(25.0 * std::numbers::pi / 180);
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      const double x = i + (j % 2 ? 0.3 : 0.0) * (i > 0 && i < n), y = j - n / 2;
+      m.V.row(j * (n + 1) + i) << x, y, y > 0 ? y * slope : 0.0;
+    }
+  for (int j = 0, f = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+      m.F.row(f++) << a, b, d;
+      m.F.row(f++) << a, d, c;
+    }
+  const Features F = detect(m);
+  CHECK(F.kink_edges == n);
+  CHECK(F.sharp_edges == n);
+  long long on_crease = 0;
+  const Topology T = build_topology(m.F, m.num_vertices());
+  for (int e = 0; e < T.num_edges(); ++e)
+    if (F.edge_feature[e] && T.edge_faces[e].size() == 2) {
+      CHECK(m.V(T.E(e, 0), 1) == 0.0);
+      CHECK(m.V(T.E(e, 1), 1) == 0.0);
+      ++on_crease;
+    }
+  CHECK(on_crease == n);
+  // Without the kink test the 25 degree crease is missed at the default threshold.
+  FeatureOptions strict;
+  strict.weak_angle_deg = strict.angle_deg;
+  CHECK(detect(m, strict).sharp_edges == 0);
+
+  // 16 segments around: 22.5 degree dihedral angles on the side, but no kink there.
+  FeatureOptions no_entities;
+  no_entities.entity_borders = false;
+  const Mesh c = capped_cylinder(16, 8, 1.0, 2.0);
+  const Features C = detect(c, no_entities);
+  CHECK(C.kink_edges == 0);
+  CHECK(C.sharp_edges == 2 * 16);
 }
 
 TEST_CASE("cylinder: two closed rim loops, entity borders counted") {

@@ -1,0 +1,167 @@
+#include "engine/curving/band_fit.hpp"
+
+#include <Eigen/Geometry>
+#include <Eigen/QR>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace hocurve {
+
+namespace {
+
+/// The feature edges at the vertex of wedge w that bound the wedge's faces (ascending).
+std::vector<int> bounding_feature_edges(const Mesh& mesh, const Topology& T, const Wedges& W,
+                                        const Features& feat, int w) {
+  const int v = W.wedge_vertex[w];
+  std::vector<int> out;
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
+    const int f = W.wedge_faces[i];
+    for (int j = 0; j < 3; ++j) {
+      const int e = T.FE(f, j);
+      if ((mesh.F(f, j) == v || mesh.F(f, (j + 1) % 3) == v) && feat.edge_feature[e]) out.push_back(e);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+/// Index of monomial u^j v^k in LocalFit's coefficient order (by degree, then descending j).
+int monomial_index(int j, int k) {
+  const int d = j + k;
+  return (d - 1) * (d + 2) / 2 + k;
+}
+
+/// The fit moves no point of the wedge's faces by more than opt.max_offset x sqrt(2 area) of
+/// that face (fit_wedge's sanity bound: beyond it the fit extrapolates).
+bool moves_little(const Mesh& mesh, const Wedges& W, int w, const LocalFit& fit, const FitOptions& opt) {
+  if (!fit.c.allFinite()) return false;
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
+    const int f = W.wedge_faces[i];
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+    const double limit = opt.max_offset * std::sqrt((b - a).cross(c - a).norm());
+    for (int j = 0; j <= 4; ++j)
+      for (int k = 0; j + k <= 4; ++k) {
+        const Eigen::Vector3d x = a + (j / 4.0) * (b - a) + (k / 4.0) * (c - a);
+        if (!((fit.project(x) - x).norm() <= limit)) return false;
+      }
+  }
+  return true;
+}
+
+}  // namespace
+
+bool is_band_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, const Features& feat, int w) {
+  const int v = W.wedge_vertex[w];
+  if (feat.edge_feature.empty() || !feat.vertex_feature[v]) return false;
+  const std::vector<int> be = bounding_feature_edges(mesh, T, W, feat, w);
+  if (be.size() != 2) return false;
+  const Eigen::Vector3d o = mesh.V.row(v);
+  const Eigen::Vector3d d0 = (Eigen::Vector3d(mesh.V.row(T.other(be[0], v))) - o).normalized();
+  const Eigen::Vector3d d1 = (Eigen::Vector3d(mesh.V.row(T.other(be[1], v))) - o).normalized();
+  if (d0.dot(d1) > -0.5) return false;  // the curve turns by 60 degrees or more here
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (!feat.vertex_feature[mesh.F(W.wedge_faces[i], j)]) return false;
+  return true;
+}
+
+LocalFit fit_band_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, const Features& feat,
+                        int w, int p, const LocalFit& base, const FitOptions& opt) {
+  const int v = W.wedge_vertex[w];
+  const Eigen::Vector3d o = mesh.V.row(v);
+  const std::vector<int> be = bounding_feature_edges(mesh, T, W, feat, w);
+  const Eigen::Vector3d d0 = (Eigen::Vector3d(mesh.V.row(T.other(be[0], v))) - o).normalized();
+  const Eigen::Vector3d d1 = (Eigen::Vector3d(mesh.V.row(T.other(be[1], v))) - o).normalized();
+  LocalFit F = base;
+  F.requested_degree = p;
+  const Eigen::Vector3d n = base.n;
+  Eigen::Vector3d t = d0 - d1;
+  t -= t.dot(n) * n;
+  if (!(t.norm() > 0)) return base;
+  F.t1 = t.normalized();
+  F.t2 = n.cross(F.t1);
+  F.identity = false;
+
+  const int ncoef = 2 * p;  // u^1..u^p and v u^0..v u^(p-1)
+  StencilOptions so;
+  so.min_rings = 1;
+  so.max_rings = opt.max_rings;
+  so.target_points = static_cast<int>(std::ceil(opt.points_per_coef * ncoef)) + 1;
+  so.max_points = opt.max_points;
+  const Stencil S = grow_stencil(mesh, T, W, w, so);
+  const int k = static_cast<int>(S.vertices.size()) - 1;
+  if (k < 2) return base;
+  std::vector<double> dist(k);
+  for (int i = 0; i < k; ++i) dist[i] = (Eigen::Vector3d(mesh.V.row(S.vertices[i + 1])) - o).norm();
+  std::vector<double> sd(dist);
+  std::sort(sd.begin(), sd.end());
+  const double h = base.h;
+  const double sigma = std::max(opt.sigma_factor * h, opt.sigma_reach * sd[std::min(k, so.target_points - 1) - 1]);
+
+  for (int deg = p; deg >= 1; --deg) {
+    const int m = 2 * deg;
+    if (k < m) continue;
+    Eigen::MatrixXd A(k, m);
+    Eigen::VectorXd b(k);
+    for (int i = 0; i < k; ++i) {
+      const Eigen::Vector3d d = Eigen::Vector3d(mesh.V.row(S.vertices[i + 1])) - o;
+      const double u = d.dot(F.t1) / h, vv = d.dot(F.t2) / h;
+      const double wt = std::exp(-dist[i] * dist[i] / (2 * sigma * sigma));
+      double pu = 1;
+      for (int j = 0; j < deg; ++j) {
+        A(i, deg + j) = wt * vv * pu;  // v u^j
+        pu *= u;
+        A(i, j) = wt * pu;             // u^(j+1)
+      }
+      b[i] = wt * d.dot(n) / h;
+    }
+    Eigen::VectorXd scale(m);
+    for (int j = 0; j < m; ++j) {
+      const double s = A.col(j).norm();
+      if (!(s > 0)) return base;
+      scale[j] = 1.0 / s;
+      A.col(j) *= scale[j];
+    }
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
+    qr.setThreshold(opt.rank_tol);
+    if (qr.rank() < m) continue;
+    Eigen::VectorXd x = qr.solve(b);
+    x.array() *= scale.array();
+    if (!x.allFinite()) continue;
+    F.degree = deg;
+    F.c = Eigen::VectorXd::Zero(fit_coefficients(deg));
+    for (int j = 0; j < deg; ++j) {
+      F.c[monomial_index(j + 1, 0)] = x[j];
+      F.c[monomial_index(j, 1)] = x[deg + j];
+    }
+    F.points = k;
+    F.support_points = 0;
+    F.rings = S.rings;
+    F.pivot_ratio = std::abs(qr.matrixQR()(m - 1, m - 1)) / std::max(std::abs(qr.matrixQR()(0, 0)), 1e-300);
+    if (moves_little(mesh, W, w, F, opt)) return F;
+  }
+  return base;
+}
+
+long long refit_band_wedges(const Mesh& mesh, const Topology& T, const Wedges& W,
+                            const Features& feat, int p, const FitOptions& opt,
+                            std::vector<LocalFit>& fits) {
+  const int nw = W.num_wedges();
+  std::vector<char> band(nw, 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, nw), [&](const tbb::blocked_range<int>& r) {
+    for (int w = r.begin(); w < r.end(); ++w)
+      if (is_band_wedge(mesh, T, W, feat, w)) {
+        band[w] = 1;
+        fits[w] = fit_band_wedge(mesh, T, W, feat, w, p, fits[w], opt);
+      }
+  });
+  long long count = 0;
+  for (char b : band) count += b;
+  return count;
+}
+
+}  // namespace hocurve
