@@ -1,0 +1,78 @@
+// Coarse lifting: curved high-order elements on a decimated mesh that stay on the dense
+// surface (issue 5, steps 3-4).
+//
+// Pipeline, and why:
+// 1. The dense mesh is fitted as in dense curving (wedge fits and feature-curve fits), so its
+//    data define a smooth surface that is much closer to the true one than its facets.
+// 2. Every coarse vertex gets a local MLS height fit (solve_height_fit) whose data are the
+//    dense vertices the map puts in its coarse wedge (one ring of coarse faces, grown when short
+//    of points); coarse feature edges (found through the map) split the wedges.
+// 3. Corners and high-order nodes start from the WALF blend of the coarse fits (edge nodes
+//    once per edge: conforming), and are then snapped onto the dense fitted surface by a
+//    closest-point walk that starts where the map sends the node's (coarse face, barycentric);
+//    nodes of coarse feature edges snap onto the dense feature-curve fits instead.
+// 4. Validity is checked and repaired as in dense curving.
+#pragma once
+#include "engine/coarse/decimate.hpp"
+#include "engine/coarse/dense_surface.hpp"
+#include "engine/highorder/high_order_mesh.hpp"
+#include "engine/highorder/validity.hpp"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace hocurve {
+
+struct LiftOptions {
+  int order = 4;                                        ///< 2..6
+  NodeDistribution distribution = NodeDistribution::Equispaced;
+  /// Feature detection on the dense mesh; set it as the decimation did (feature_options()).
+  FeatureOptions features;
+  int dense_degree = 4;        ///< degree of the dense fits (the reference surface)
+  FitOptions fit;              ///< dense and coarse fits
+  double coarse_sigma_factor = 1.0;  ///< Gaussian sigma of the coarse fits, in mean coarse edge lengths
+  int max_rings = 3;           ///< coarse rings a coarse fit may grow to when short of dense points
+  bool refine = true;          ///< snap nodes onto the dense fitted surface (else: coarse fits only)
+  bool repair = true;          ///< run repair_validity (else only check_validity)
+  ValidityOptions validity;
+  /// Called on the calling thread between stages with the stage name and the fraction done (0..1).
+  std::function<void(const std::string& stage, double fraction)> progress;
+};
+
+/// The dense feature options that match a decimation's feature marks.
+FeatureOptions feature_options(const DecimateOptions& d);
+
+struct LiftResult {
+  HighOrderMesh mesh;
+  int vertices = 0, faces = 0, edges = 0;
+  // dense reference surface
+  long long dense_feature_edges = 0;
+  int dense_corners = 0;
+  FitResult dense_fits;          ///< per dense wedge (fits kept)
+  long long dense_curve_fits = 0;
+  bool dense_support = false;
+  // coarse fits
+  long long coarse_feature_edges = 0;
+  long long coarse_wedges = 0;
+  std::vector<long long> coarse_degree_histogram;  ///< [d] = coarse fits of final degree d
+  double coarse_mean_points = 0;
+  int coarse_min_points = 0;
+  long long coarse_grown = 0;    ///< coarse fits that needed more than one ring
+  // placement and refinement
+  long long nodes = 0;           ///< corners + edge nodes + face nodes placed
+  long long curve_nodes = 0;     ///< snapped onto feature curves
+  long long map_clamped = 0;     ///< map queries whose point location was clamped
+  long long walk_steps = 0;
+  double refine_max = 0, refine_rms = 0;  ///< fit-blend -> dense-surface move, over the bbox diagonal
+  ValidityReport validity;
+  double bbox_diagonal = 0;
+  double seconds_dense = 0, seconds_coarse_fits = 0, seconds_placement = 0, seconds_validity = 0,
+         seconds_total = 0;
+};
+
+/// Lifts the coarse mesh of `dec` (built with build_map) to an order-p curved mesh on the dense
+/// surface of `fine`. Throws UsageError for an order outside 2..6 or a result without its map.
+LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOptions& opt = {});
+
+}  // namespace hocurve

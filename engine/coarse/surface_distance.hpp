@@ -1,0 +1,45 @@
+// Distances between surfaces, for measuring coarse lifting: a uniform-grid closest-point query
+// on a triangle mesh, a linear tessellation of curved elements, and a sampled two-sided
+// Hausdorff distance.
+#pragma once
+#include "engine/core/mesh.hpp"
+#include "engine/highorder/high_order_mesh.hpp"
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace hocurve {
+
+/// Uniform grid over a triangle mesh's bounding boxes: exact closest-point distance queries
+/// (search in growing shells of cells until no closer triangle can exist).
+struct TriangleGrid {
+  const Mesh* mesh = nullptr;
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero();
+  double cell = 1;
+  Eigen::Vector3i dims = Eigen::Vector3i::Ones();
+  std::vector<int> start, items;  ///< CSR: cell -> triangles overlapping it
+};
+
+/// Builds the grid (about cells_per_face cells per triangle overall). Keep mesh alive.
+TriangleGrid build_triangle_grid(const Mesh& mesh, double cells_per_face = 1.0);
+
+/// Distance from x to the closest triangle of the grid's mesh (face index in *face if given).
+double grid_distance(const TriangleGrid& grid, const Eigen::Vector3d& x, int* face = nullptr);
+
+/// Linear triangles through an n x n sub-lattice of every curved element (n^2 per element).
+Mesh tessellate(const HighOrderMesh& hm, int n);
+
+/// Points of every face of mesh at the barycentric lattice of degree n (shared points repeated).
+Eigen::MatrixXd sample_faces(const Mesh& mesh, int n);
+
+struct HausdorffResult {
+  double a_to_b = 0, b_to_a = 0;  ///< max over A's samples of the distance to B, and back
+  double mean_a_to_b = 0, mean_b_to_a = 0;
+  double hausdorff() const { return std::max(a_to_b, b_to_a); }
+};
+
+/// Sampled two-sided Hausdorff distance between triangle meshes A and B (faces sampled at the
+/// degree-n lattice; exact closest points on the other mesh). TBB-parallel.
+HausdorffResult hausdorff_distance(const Mesh& A, const Mesh& B, int n = 4);
+
+}  // namespace hocurve
