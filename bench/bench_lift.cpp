@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <string>
 
@@ -48,9 +49,9 @@ void analytic(const char* name, const Mesh& fine, int target, int p,
               name, fine.num_faces(), D.coarse.num_faces(), p, dense, straight, p, curved, fits_only,
               L.validity.invalid_after, L.validity.repaired, L.validity.min_scaled_jacobian, t1 - t0, t2 - t1);
   std::printf("         coarse fits: mean %.1f points (min %d), %lld grown; refine move max %.2e rms %.2e diag; "
-              "%lld curve nodes, %lld clamps, %.1f walk steps/node\n",
-              L.coarse_mean_points, L.coarse_min_points, L.coarse_grown, L.refine_max, L.refine_rms, L.curve_nodes,
-              L.map_clamped, double(L.walk_steps) / std::max<long long>(1, L.nodes));
+              "%lld fit fallbacks, %lld curve nodes, %lld rays failed, %lld clamps, %.2f walk steps/node\n",
+              L.coarse_mean_points, L.coarse_min_points, L.coarse_grown, L.refine_max, L.refine_rms, L.fit_fallback_elements, L.curve_nodes,
+              L.ray_failed, L.map_clamped, double(L.walk_steps) / std::max<long long>(1, L.nodes));
 }
 
 void real(const std::string& file, double ratio, int p) {
@@ -69,13 +70,24 @@ void real(const std::string& file, double ratio, int p) {
   const HausdorffResult Hc = hausdorff_distance(fine, tessellate(L.mesh, 8), 4);
   const HausdorffResult Hs = hausdorff_distance(fine, D.coarse, 4);
   std::printf("%-22s %7d -> %5d P%d | Hausdorff/diag: coarse P%d %.3f%% (dense->coarse %.3f%%, coarse->dense %.3f%%), "
-              "straight %.3f%% | invalid %lld (repaired %lld) | features dense %lld, coarse %lld | decimate %.2f s, "
+              "straight %.3f%% | invalid %lld (fit fallback %lld, repaired %lld) | features dense %lld, coarse %lld | decimate %.2f s, "
               "lift %.2f s\n",
               file.substr(file.find_last_of('/') + 1).c_str(), fine.num_faces(), D.coarse.num_faces(), p, p,
               100 * Hc.hausdorff() / diag, 100 * Hc.a_to_b / diag, 100 * Hc.b_to_a / diag, 100 * Hs.hausdorff() / diag,
-              L.validity.invalid_after, L.validity.repaired, L.dense_feature_edges, L.coarse_feature_edges, t1 - t0,
+              L.validity.invalid_after, L.fit_fallback_elements, L.validity.repaired, L.dense_feature_edges, L.coarse_feature_edges, t1 - t0,
               t2 - t1);
   if (!D.reached_target) std::printf("    %s\n", D.message.c_str());
+  if (std::getenv("BENCH_LIFT_DEBUG")) {
+    lopt.repair = false;
+    const LiftResult U = lift_coarse(fine, D, lopt);
+    const HausdorffResult Hu = hausdorff_distance(fine, tessellate(U.mesh, 8), 4);
+    lopt.refine = false;
+    const LiftResult Uf = lift_coarse(fine, D, lopt);
+    const HausdorffResult Hf = hausdorff_distance(fine, tessellate(Uf.mesh, 8), 4);
+    std::printf("    unrepaired: %lld invalid, Hausdorff %.3f%% (%.3f / %.3f); fits only unrepaired: %lld invalid, %.3f%%\n",
+                U.validity.invalid_after, 100 * Hu.hausdorff() / diag, 100 * Hu.a_to_b / diag, 100 * Hu.b_to_a / diag,
+                Uf.validity.invalid_after, 100 * Hf.hausdorff() / diag);
+  }
 }
 
 void speed(int p) {

@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <limits>
 
 namespace hocurve {
@@ -25,6 +26,7 @@ DenseSurface build_dense_surface(const Mesh& fine, const DenseSurfaceOptions& op
   }
   S.fits = fit_wedges(fine, S.T, S.W, opt.degree, S.support_used ? &support : nullptr, opt.fit);
   S.curves = fit_feature_curves(fine, S.T, S.features, opt.degree, opt.fit);
+  S.max_lift = opt.max_lift;
   S.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return S;
 }
@@ -89,6 +91,19 @@ double segment_distance(const Mesh& m, const Topology& T, int e, const Eigen::Ve
   return (q - x).squaredNorm();
 }
 
+/// lifted, moved back toward linear so that it lies at most max_lift x h from it.
+Eigen::Vector3d capped_lift(const Eigen::Vector3d& linear, const Eigen::Vector3d& lifted, double h, double max_lift) {
+  const double d = (lifted - linear).norm();
+  if (!(d <= max_lift * h)) return d > 0 && std::isfinite(d) ? Eigen::Vector3d(linear + (lifted - linear) * (max_lift * h / d)) : linear;
+  return lifted;
+}
+
+double mean_edge(const Mesh& m, int f) {
+  const Eigen::Vector3d a = m.V.row(m.F(f, 0)).transpose(), b = m.V.row(m.F(f, 1)).transpose(),
+                        c = m.V.row(m.F(f, 2)).transpose();
+  return ((a - b).norm() + (b - c).norm() + (c - a).norm()) / 3;
+}
+
 }  // namespace
 
 DenseProjection project_to_dense_surface(const DenseSurface& S, int f, const Eigen::Vector3d& x, int max_steps) {
@@ -118,8 +133,51 @@ DenseProjection project_to_dense_surface(const DenseSurface& S, int f, const Eig
   P.face = f;
   P.bary = bc;
   P.linear = q;
-  P.lifted = blend_point(m, S.W, S.fits.fits, f, bc);
+  P.lifted = capped_lift(q, blend_point(m, S.W, S.fits.fits, f, bc), mean_edge(m, f), S.max_lift);
   return P;
+}
+
+DenseProjection project_along_dense_surface(const DenseSurface& S, int f, const Eigen::Vector3d& x,
+                                            const Eigen::Vector3d& d, double max_t, bool& ok, int max_steps) {
+  const Mesh& m = *S.mesh;
+  const auto& ef = S.features.edge_feature;
+  DenseProjection P;
+  ok = false;
+  const int start = f;
+  for (; P.steps < max_steps; ++P.steps) {
+    const Eigen::Vector3d a = m.V.row(m.F(f, 0)).transpose(), b = m.V.row(m.F(f, 1)).transpose(),
+                          c = m.V.row(m.F(f, 2)).transpose();
+    const Eigen::Vector3d nf = (b - a).cross(c - a);
+    const double n2 = nf.squaredNorm(), den = d.dot(nf);
+    if (!(n2 > 0) || !(std::abs(den) > 1e-8 * std::sqrt(n2))) break;
+    const double t = (a - x).dot(nf) / den;
+    const Eigen::Vector3d y = x + t * d;
+    // Barycentrics of y in the plane of the face.
+    Eigen::Vector3d bc((c - b).cross(y - b).dot(nf) / n2, (a - c).cross(y - c).dot(nf) / n2, 0);
+    bc[2] = 1 - bc[0] - bc[1];
+    int j = 0;
+    for (int k = 1; k < 3; ++k)
+      if (bc[k] < bc[j]) j = k;
+    if (bc[j] >= -1e-12) {
+      if (!(std::abs(t) <= max_t)) break;
+      bc = bc.cwiseMax(0.0);
+      bc /= bc.sum();
+      P.face = f;
+      P.bary = bc;
+      P.linear = bc[0] * a + bc[1] * b + bc[2] * c;
+      P.lifted = capped_lift(P.linear, blend_point(m, S.W, S.fits.fits, f, bc), mean_edge(m, f), S.max_lift);
+      ok = true;
+      return P;
+    }
+    // Cross the edge opposite corner j (edge (j+1)%3 joins corners j+1 and j+2).
+    const int e = S.T.FE(f, (j + 1) % 3);
+    const auto& faces = S.T.edge_faces[e];
+    if ((!ef.empty() && ef[e]) || faces.size() != 2) break;
+    f = faces[0] == f ? faces[1] : faces[0];
+  }
+  DenseProjection Q = project_to_dense_surface(S, start, x);
+  Q.steps += P.steps;
+  return Q;
 }
 
 DenseProjection project_to_dense_curve(const DenseSurface& S, int f, const Eigen::Vector3d& x, int max_steps) {
@@ -180,7 +238,8 @@ DenseProjection project_to_dense_curve(const DenseSurface& S, int f, const Eigen
   P.t = bt;
   P.face = T.edge_faces[best].empty() ? f : T.edge_faces[best][0];
   P.linear = bq;
-  P.lifted = curve_edge_point(m, T, S.curves, best, bt);
+  P.lifted = capped_lift(bq, curve_edge_point(m, T, S.curves, best, bt),
+                         (m.V.row(T.E(best, 0)) - m.V.row(T.E(best, 1))).norm(), S.max_lift);
   return P;
 }
 

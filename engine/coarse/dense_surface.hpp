@@ -18,6 +18,10 @@ struct DenseSurfaceOptions {
   FeatureOptions features;     ///< should match the decimation's feature marks
   FitOptions fit;
   bool support = true;         ///< support points when the triangulation is non-uniform (as curve_mesh)
+  /// Largest lift from the dense facets onto the fits, in mean edge lengths of the dense face:
+  /// longer lifts are scaled down to it. Smooth fits lift by ~h^2 curvature / 8 (0.006 h on a
+  /// 12k-triangle sphere); on scans, one-sided fits at noisy creases overshoot up to 0.3 h.
+  double max_lift = 0.1;
 };
 
 /// The dense mesh with its topology, features, wedges and fits (everything needed to evaluate
@@ -30,6 +34,7 @@ struct DenseSurface {
   FitResult fits;
   CurveFitResult curves;
   bool support_used = false;
+  double max_lift = 0.1;
   double seconds = 0;
 };
 
@@ -53,6 +58,16 @@ struct DenseProjection {
 /// feature edge (greedy walk over the faces of each corner's wedge), lifted onto the fits.
 DenseProjection project_to_dense_surface(const DenseSurface& S, int start_face, const Eigen::Vector3d& x,
                                          int max_steps = 100000);
+
+/// Intersection of the line x + t d (d unit) with the dense triangles, found by a point-location
+/// walk from start_face (across the edge with the most negative barycentric of the hit of each
+/// face's plane), without crossing feature or boundary edges; lifted onto the fits. A smooth
+/// direction field makes this map smooth, where closest points on a piecewise-linear surface
+/// bunch at convex edges and jump at concave ones. ok = false (and the closest point instead)
+/// when the walk leaves the region, cycles, or |t| > max_t.
+DenseProjection project_along_dense_surface(const DenseSurface& S, int start_face, const Eigen::Vector3d& x,
+                                            const Eigen::Vector3d& d, double max_t, bool& ok,
+                                            int max_steps = 2000);
 
 /// Closest point to x on the dense feature curves, found by a walk along feature edges that
 /// starts at the feature edges nearest start_face; lifted onto the curve fits. Falls back to

@@ -144,6 +144,62 @@ CoarseFit fit_coarse_wedge(const Mesh& fine, const Mesh& coarse, const Topology&
   return out;
 }
 
+/// Shrinks the snapped nodes of invalid elements toward their fit-blend positions
+/// (x = fit + s (snapped - fit), s *= shrink per round, per edge and face so that shared edge
+/// nodes stay conforming), re-checking the touched elements. Returns the elements touched.
+long long fall_back_to_fits(HighOrderMesh& hm, const Eigen::MatrixXd& edge_fit, const Eigen::MatrixXd& face_fit,
+                            const ValidityOptions& vopt) {
+  const int nf = hm.num_faces(), ne = static_cast<int>(hm.E.rows());
+  const int npe = hm.nodes_per_edge(), npf = hm.nodes_per_face();
+  const Eigen::MatrixXd edge_snap = hm.edge_nodes, face_snap = hm.face_nodes;
+  std::vector<double> se(ne, 1.0), sf(nf, 1.0);
+  std::vector<char> touched(nf, 0);
+  const JacobianBasis basis(hm.order);
+  std::vector<char> bad(nf, 0), check(nf, 1);
+  std::vector<std::vector<int>> edge_faces(ne);
+  for (int f = 0; f < nf; ++f)
+    for (int j = 0; j < 3; ++j) edge_faces[hm.FE(f, j)].push_back(f);
+  for (int round = 0; round < 12; ++round) {
+    parallel(nf, [&](int f) {
+      if (check[f]) bad[f] = !check_element(basis, element_nodes(hm, f), vopt).valid;
+    });
+    std::vector<char> edge_changed(ne, 0);
+    bool any = false;
+    for (int f = 0; f < nf; ++f) {
+      check[f] = 0;
+      if (!bad[f]) continue;
+      any = true;
+      touched[f] = 1;
+      const double k = round == 11 ? 0.0 : 0.6;
+      sf[f] *= k;
+      for (int j = 0; j < 3; ++j) {
+        const int e = hm.FE(f, j);
+        if (!edge_changed[e]) se[e] *= k, edge_changed[e] = 1;
+      }
+    }
+    if (!any) break;
+    for (int e = 0; e < ne; ++e) {
+      if (!edge_changed[e]) continue;
+      for (int k = 0; k < npe; ++k) {
+        const Eigen::Index r = static_cast<Eigen::Index>(e) * npe + k;
+        hm.edge_nodes.row(r) = edge_fit.row(r) + se[e] * (edge_snap.row(r) - edge_fit.row(r));
+      }
+      for (int g : edge_faces[e]) check[g] = 1;
+    }
+    for (int f = 0; f < nf; ++f)
+      if (bad[f]) {
+        check[f] = 1;
+        for (int k = 0; k < npf; ++k) {
+          const Eigen::Index r = static_cast<Eigen::Index>(f) * npf + k;
+          hm.face_nodes.row(r) = face_fit.row(r) + sf[f] * (face_snap.row(r) - face_fit.row(r));
+        }
+      }
+  }
+  long long n = 0;
+  for (char t : touched) n += t;
+  return n;
+}
+
 }  // namespace
 
 FeatureOptions feature_options(const DecimateOptions& d) {
@@ -175,6 +231,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   progress("dense fits", 0.0);
   DenseSurfaceOptions dso;
   dso.degree = opt.dense_degree;
+  dso.max_lift = opt.max_lift;
   dso.features = opt.features;
   dso.fit = opt.fit;
   const DenseSurface S = build_dense_surface(fine, dso);
@@ -251,15 +308,34 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   const Eigen::MatrixXd tri = triangle_reference_nodes(p, opt.distribution);
   struct NodeStats {
     double max = 0, sum2 = 0;
-    long long clamped = 0, steps = 0, curve = 0;
+    long long clamped = 0, steps = 0, curve = 0, ray_failed = 0;
   };
   // One node: blend, then snap. Returns the node and updates the item's stats.
-  auto place = [&](int f, const Eigen::Vector3d& xi, bool curve, NodeStats& ns) -> Eigen::Vector3d {
-    const Eigen::Vector3d x0 = blend_point(coarse, Wc, fits, f, xi);
+  // The fit-blend positions, kept: invalid snapped elements fall back toward them first.
+  Eigen::MatrixXd edge_fit(hm.edge_nodes.rows(), 3), face_fit(hm.face_nodes.rows(), 3);
+  auto place = [&](int f, const Eigen::Vector3d& xi, bool curve, NodeStats& ns, Eigen::Vector3d& x0) -> Eigen::Vector3d {
+    x0 = blend_point(coarse, Wc, fits, f, xi);
     if (!opt.refine) return x0;
     MapQueryStats st;
     const SurfacePoint sp = coarse_to_fine(map, f, xi, &st);
-    const DenseProjection P = curve ? project_to_dense_curve(S, sp.face, x0) : project_to_dense_surface(S, sp.face, x0);
+    DenseProjection P;
+    if (curve) {
+      P = project_to_dense_curve(S, sp.face, x0);
+    } else if (opt.projection == LiftOptions::Projection::Closest) {
+      P = project_to_dense_surface(S, sp.face, x0);
+    } else {
+      // Along the blend of the corner fits' normals (only the edge's two ends on an edge: conforming).
+      Eigen::Vector3d n = Eigen::Vector3d::Zero();
+      double hf = 0;
+      for (int j = 0; j < 3; ++j) {
+        n += xi[j] * fits[Wc.corner_wedge(f, j)].n;
+        hf += (coarse.V.row(coarse.F(f, j)) - coarse.V.row(coarse.F(f, (j + 1) % 3))).norm() / 3;
+      }
+      bool ok = false;
+      P = n.norm() > 0 ? project_along_dense_surface(S, sp.face, x0, n.normalized(), opt.max_ray * hf, ok)
+                       : project_to_dense_surface(S, sp.face, x0);
+      ns.ray_failed += !ok;
+    }
     const double d = (P.lifted - x0).norm();
     ns.max = std::max(ns.max, d);
     ns.sum2 += d * d;
@@ -280,15 +356,20 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
       Eigen::Vector3d xi = Eigen::Vector3d::Zero();
       xi[ja] = 1 - line[k];
       xi[jb] = line[k];
-      hm.edge_nodes.row(static_cast<Eigen::Index>(e) * npe + k - 1) = place(f, xi, cfeat[e], edge_stats[e]).transpose();
+      Eigen::Vector3d x0;
+      const Eigen::Index r = static_cast<Eigen::Index>(e) * npe + k - 1;
+      hm.edge_nodes.row(r) = place(f, xi, cfeat[e], edge_stats[e], x0).transpose();
+      edge_fit.row(r) = x0.transpose();
     }
   });
   if (npf > 0)
     parallel(ncf, [&](int f) {
       for (int k = 0; k < npf; ++k) {
         const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
-        hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k) =
-            place(f, Eigen::Vector3d(1 - u - v, u, v), false, face_stats[f]).transpose();
+        Eigen::Vector3d x0;
+        const Eigen::Index r = static_cast<Eigen::Index>(f) * npf + k;
+        hm.face_nodes.row(r) = place(f, Eigen::Vector3d(1 - u - v, u, v), false, face_stats[f], x0).transpose();
+        face_fit.row(r) = x0.transpose();
       }
     });
   double sum2 = 0;
@@ -299,6 +380,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
       R.map_clamped += ns.clamped;
       R.walk_steps += ns.steps;
       R.curve_nodes += ns.curve;
+      R.ray_failed += ns.ray_failed;
     }
   const long long ho_nodes = static_cast<long long>(ne) * npe + static_cast<long long>(ncf) * npf;
   R.nodes += ho_nodes;
@@ -308,9 +390,12 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   }
   R.seconds_placement = since(t0);
 
-  // 5. Validity, exactly as dense curving.
+  // 5. Validity. Snapped nodes interpolate the dense data, noise included (scans): where that
+  // folds an element, its nodes go back toward the smooth coarse-fit blend first; then the
+  // check and repair of dense curving (toward the straight triangles) as the final guarantee.
   progress("validity", 0.9);
   t0 = Clock::now();
+  if (opt.refine && opt.repair) R.fit_fallback_elements = fall_back_to_fits(hm, edge_fit, face_fit, opt.validity);
   R.validity = opt.repair ? repair_validity(hm, opt.validity) : check_validity(hm, opt.validity);
   R.seconds_validity = since(t0);
   R.seconds_total = since(t_all);

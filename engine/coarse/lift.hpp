@@ -30,10 +30,16 @@ struct LiftOptions {
   /// Feature detection on the dense mesh; set it as the decimation did (feature_options()).
   FeatureOptions features;
   int dense_degree = 4;        ///< degree of the dense fits (the reference surface)
+  double max_lift = 0.1;       ///< DenseSurfaceOptions::max_lift
   FitOptions fit;              ///< dense and coarse fits
   double coarse_sigma_factor = 1.0;  ///< Gaussian sigma of the coarse fits, in mean coarse edge lengths
   int max_rings = 3;           ///< coarse rings a coarse fit may grow to when short of dense points
   bool refine = true;          ///< snap nodes onto the dense fitted surface (else: coarse fits only)
+  /// How surface nodes reach the dense surface: along the blended coarse-fit normal (Ray; falls
+  /// back to Closest when the ray leaves the region or runs further than max_ray coarse edge
+  /// lengths) or to the closest point.
+  enum class Projection { Ray, Closest } projection = Projection::Ray;
+  double max_ray = 0.5;
   bool repair = true;          ///< run repair_validity (else only check_validity)
   ValidityOptions validity;
   /// Called on the calling thread between stages with the stage name and the fraction done (0..1).
@@ -62,10 +68,12 @@ struct LiftResult {
   // placement and refinement
   long long nodes = 0;           ///< corners + edge nodes + face nodes placed
   long long curve_nodes = 0;     ///< snapped onto feature curves
+  long long ray_failed = 0;      ///< Ray projections that fell back to the closest point
   long long map_clamped = 0;     ///< map queries whose point location was clamped
   long long walk_steps = 0;
   double refine_max = 0, refine_rms = 0;  ///< fit-blend -> dense-surface move, over the bbox diagonal
-  ValidityReport validity;
+  long long fit_fallback_elements = 0;  ///< invalid snapped elements moved back toward the coarse-fit blend
+  ValidityReport validity;     ///< of the final repair_validity (invalid_before: after the fit fallback)
   double bbox_diagonal = 0;
   double seconds_dense = 0, seconds_coarse_fits = 0, seconds_placement = 0, seconds_validity = 0,
          seconds_total = 0;
