@@ -1,12 +1,180 @@
 // hocurve coarsen: decimate, map and lift a coarse curved mesh (coarse lifting issue).
+#include "cli/args.hpp"
 #include "cli/commands.hpp"
+#include "cli/common.hpp"
 
+#include "engine/coarse/decimate.hpp"
+#include "engine/coarse/lift.hpp"
 #include "engine/core/error.hpp"
+#include "engine/highorder/write_msh.hpp"
+
+#include <tbb/global_control.h>
+
+#include <filesystem>
+#include <iostream>
+#include <memory>
 
 namespace hocurve::cli {
 
-int run_coarsen(int, char**) {
-  throw UsageError("coarsen is not available in this build yet (coarse lifting is in progress)");
+namespace {
+
+const std::vector<OptionSpec> kCoarsenOptions = {
+    {"output", true, "output .msh file (required)", 'o'},
+    {"order", true, "element order 2..6 (default 4)"},
+    {"faces", true, "target number of coarse triangles (>= 4)"},
+    {"ratio", true, "target fraction of the input's triangles, in (0, 1]"},
+    {"nodes", true, "equispaced (default; what Gmsh's Lagrange elements assume) | lobatto"},
+    {"format", true, "msh41 (default) | msh22"},
+    {"binary", false, "binary .msh (little-endian, as Gmsh writes it)"},
+    {"stats", true, "write every stage's figures and timings as JSON to this file"},
+    {"threads", true, "worker threads (default: all cores)"},
+    {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
+    {"progress", false, "print progress as JSON lines on stdout"},
+    {"help", false, "show this help", 'h'},
+};
+
+const char* kCoarsenUsage =
+    "usage: hocurve coarsen INPUT -o OUTPUT.msh --order P (--faces N | --ratio R)\n"
+    "                       [--nodes equispaced|lobatto] [--format msh41|msh22] [--binary]\n"
+    "                       [--stats STATS.json] [--threads N] [--feature-angle DEG] [--progress]\n"
+    "Decimates a linear triangle surface mesh to N triangles (or R x its count), keeping feature\n"
+    "curves, and curves the coarse triangles to order P so that they stay on the dense surface.\n";
+
+nlohmann::json histogram(const std::vector<long long>& h) {
+  nlohmann::json j = nlohmann::json::array();
+  for (long long x : h) j.push_back(x);
+  return j;
+}
+
+nlohmann::json decimation_json(const DecimateResult& d, double seconds) {
+  const RejectCounts& r = d.rejected;
+  return {{"target_faces", d.target_faces},
+          {"faces", d.coarse.num_faces()},
+          {"vertices", d.coarse.num_vertices()},
+          {"reached_target", d.reached_target},
+          {"message", d.message},
+          {"collapses", d.collapses},
+          {"rejected",
+           {{"total", r.total()}, {"link", r.link}, {"feature", r.feature}, {"boundary", r.boundary},
+            {"valence", r.valence}, {"fold", r.fold}, {"sliver", r.sliver}, {"flatten", r.flatten}}},
+          {"feature_edges", d.feature_edges},
+          {"corners", d.corners},
+          {"map", {{"collapse_records", d.map.num_collapses()}, {"tracked_vertices", d.map.vertex_coarse_face.size()}}},
+          {"seconds", {{"total", seconds}, {"flatten", d.seconds_flatten}, {"tracking", d.seconds_tracking}}}};
+}
+
+nlohmann::json lift_json(const LiftResult& l) {
+  const ValidityReport& v = l.validity;
+  return {{"order", l.mesh.order},
+          {"vertices", l.vertices},
+          {"faces", l.faces},
+          {"edges", l.edges},
+          {"dense_surface",
+           {{"feature_edges", l.dense_feature_edges},
+            {"corners", l.dense_corners},
+            {"fits", l.dense_fits.fits.size()},
+            {"degree_histogram", histogram(l.dense_fits.degree_histogram)},
+            {"downgraded", l.dense_fits.downgraded},
+            {"curve_fits", l.dense_curve_fits},
+            {"support_points_used", l.dense_support}}},
+          {"coarse_fits",
+           {{"feature_edges", l.coarse_feature_edges},
+            {"wedges", l.coarse_wedges},
+            {"degree_histogram", histogram(l.coarse_degree_histogram)},
+            {"mean_points", l.coarse_mean_points},
+            {"min_points", l.coarse_min_points},
+            {"grown_beyond_one_ring", l.coarse_grown}}},
+          {"placement",
+           {{"nodes", l.nodes},
+            {"curve_nodes", l.curve_nodes},
+            {"ray_fallbacks", l.ray_failed},
+            {"map_clamped", l.map_clamped},
+            {"walk_steps", l.walk_steps},
+            {"refine_max_relative", l.refine_max},
+            {"refine_rms_relative", l.refine_rms}}},
+          {"validity",
+           {{"checked", v.checked},
+            {"fit_fallback_elements", l.fit_fallback_elements},
+            {"invalid_before_repair", v.invalid_before},
+            {"repaired", v.repaired},
+            {"invalid_after", v.invalid_after},
+            {"degenerate_input", v.degenerate_input},
+            {"min_scaled_jacobian", v.min_scaled_jacobian}}},
+          {"bbox_diagonal", l.bbox_diagonal},
+          {"seconds",
+           {{"dense_fits", l.seconds_dense},
+            {"coarse_fits", l.seconds_coarse_fits},
+            {"placement", l.seconds_placement},
+            {"validity", l.seconds_validity},
+            {"total", l.seconds_total}}}};
+}
+
+}  // namespace
+
+int run_coarsen(int argc, char** argv) {
+  Args a = parse_args(argc, argv, 2, kCoarsenOptions);
+  if (a.has("help")) {
+    std::cout << kCoarsenUsage << "\noptions:\n" << options_help(kCoarsenOptions);
+    return 0;
+  }
+  if (a.positional.size() != 1) throw UsageError("coarsen needs exactly one INPUT file (see --help)");
+  if (!a.has("output")) throw UsageError("coarsen needs -o OUTPUT.msh");
+  if (a.has("faces") == a.has("ratio")) throw UsageError("coarsen needs exactly one of --faces N or --ratio R");
+  const std::string input = a.positional[0], output = a.get("output");
+
+  DecimateOptions dopt;
+  if (a.has("faces")) dopt.target_faces = static_cast<int>(a.get_int("faces", 0, 4, 100000000));
+  else dopt.target_ratio = a.get_double("ratio", 0.04, 0.0, 1.0);
+  if (!(dopt.target_faces > 0 || dopt.target_ratio > 0)) throw UsageError("--ratio must be in (0, 1]");
+  dopt.feature_angle_deg = a.get_double("feature-angle", dopt.feature_angle_deg, 0.0, 180.0);
+  LiftOptions lopt;
+  lopt.order = static_cast<int>(a.get_int("order", 4, 2, 6));
+  lopt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
+  lopt.features = feature_options(dopt);
+  MshOptions msh;
+  msh.version = a.get_choice("format", "msh41", {"msh41", "msh22"}) == "msh22" ? MshOptions::Version::V22
+                                                                              : MshOptions::Version::V41;
+  msh.binary = a.has("binary");
+  std::unique_ptr<tbb::global_control> threads;
+  if (a.has("threads"))
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<size_t>(a.get_int("threads", 1, 1, 1024)));
+  Progress progress{a.has("progress")};
+  // One 0..1 scale for the whole command: load 0-0.1, decimation 0.1-0.4, lifting 0.4-0.9, write 0.9-1.
+  lopt.progress = [&](const std::string& stage, double f) {
+    if (stage != "done") progress(stage, 0.4 + 0.5 * f);
+  };
+
+  const double t0 = now_seconds();
+  LoadedInput in = load_input(input, progress);
+  const double t1 = now_seconds();
+  progress("decimate", 0.1);
+  const DecimateResult dec = decimate(in.mesh, dopt);
+  const double t2 = now_seconds();
+  const LiftResult lift = lift_coarse(in.mesh, dec, lopt);
+  const double t3 = now_seconds();
+  progress("write", 0.9);
+  write_msh_file(lift.mesh, output, msh);
+  const double t4 = now_seconds();
+  progress("done", 1.0);
+
+  if (a.has("stats")) {
+    nlohmann::json s;
+    s["generator"] = std::string("hocurve ") + HOCURVE_VERSION;
+    s["input"] = input_json(input, in);
+    s["decimation"] = decimation_json(dec, t2 - t1);
+    s["lifting"] = lift_json(lift);
+    s["output"] = {{"file", output},
+                   {"format", msh.version == MshOptions::Version::V22 ? "msh22" : "msh41"},
+                   {"binary", msh.binary},
+                   {"order", lift.mesh.order},
+                   {"nodes", to_string(lift.mesh.distribution)},
+                   {"elements", lift.mesh.num_faces()},
+                   {"bytes", std::filesystem::file_size(output)}};
+    s["seconds"] = {{"load", t1 - t0}, {"decimate", t2 - t1}, {"lift", t3 - t2}, {"write", t4 - t3}, {"total", t4 - t0}};
+    write_json_file(a.get("stats"), s);
+  }
+  return 0;
 }
 
 }  // namespace hocurve::cli

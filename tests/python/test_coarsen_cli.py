@@ -1,0 +1,143 @@
+#!/usr/bin/python3
+"""End-to-end check of `hocurve coarsen`, read back independently with Gmsh's Python module.
+
+Input: the shared exact torus (axis y, R=1, r=0.25, 4608 triangles, every vertex on the torus).
+Runs the command exactly as the daemon does for mode=coarsen (INPUT -o OUT --order P --faces N
+--stats S --progress), then asserts: exit code 0; progress lines are JSON {stage, fraction} with
+fractions non-decreasing up to 1; the .msh holds one element type, Gmsh's P4 triangle (23), as
+many elements as the stats report and close to the target; watertight/conforming (every element
+edge's node set is shared by exactly two elements, since the torus is closed); every node lies on
+the exact torus closer than the dense input's own facets do (facet-centre distance); the stats
+report 0 invalid elements. Also --ratio with msh22 binary, and usage errors (exit 2) / refused
+input (exit 3) leave no output file.
+
+Usage: test_coarsen_cli.py BUILD_DIR
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+import gmsh
+import numpy as np
+
+failures = []
+
+
+def check(cond, what):
+    print(("ok    " if cond else "FAIL  ") + what, flush=True)
+    if not cond:
+        failures.append(what)
+
+
+def torus_distance(p, R=1.0, r=0.25):
+    """Distance to the shared torus: axis y (its bounding box is 2.5 x 0.5 x 2.5)."""
+    q = np.hypot(p[:, 0], p[:, 2]) - R
+    return np.abs(np.hypot(q, p[:, 1]) - r)
+
+
+def read_msh(path):
+    """Element types, connectivity of the triangle elements and node coordinates by tag."""
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(path)
+        types, _, conns = gmsh.model.mesh.getElements(2)
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        xyz = dict(zip(tags.tolist(), np.asarray(coords).reshape(-1, 3)))
+        return list(types), conns, xyz
+    finally:
+        gmsh.finalize()
+
+
+def edge_sets(conn, p):
+    """For each element edge, the frozenset of its p+1 node tags (Gmsh order: 3 corners, then the
+    p-1 nodes of edges 0-1, 1-2, 2-0)."""
+    counts = {}
+    for el in conn:
+        for j in range(3):
+            key = frozenset([el[j], el[(j + 1) % 3]] + list(el[3 + j * (p - 1):3 + (j + 1) * (p - 1)]))
+            counts[key] = counts.get(key, 0) + 1
+    return counts
+
+
+def main(argv):
+    build = argv[1] if len(argv) > 1 else os.environ.get("HOCURVE_BUILD_DIR", "build")
+    hoc = os.path.join(build, "hocurve")
+    shared = os.environ.get("HOCURVE_SHARED_DIR", os.path.join(os.path.dirname(__file__), "../../../shared"))
+    src = os.path.join(shared, "meshes", "torus.obj")
+    if not os.access(hoc, os.X_OK):
+        print("FAIL  hocurve binary not found at %s (build the 'hocurve' target)" % hoc)
+        return 1
+    work = tempfile.mkdtemp(prefix="hocurve-coarsen-")
+    out, stats = os.path.join(work, "t.msh"), os.path.join(work, "t.json")
+    # The daemon's argv for {mode: coarsen, order: 4, faces: 300} (server/job_options.cpp worker_argv).
+    r = subprocess.run([hoc, "coarsen", src, "-o", out, "--order", "4", "--faces", "300", "--stats", stats,
+                        "--progress"], capture_output=True, text=True, timeout=300)
+    check(r.returncode == 0, "coarsen exits 0 (stderr: %s)" % r.stderr.strip())
+    if r.returncode != 0:
+        return 1
+    lines = [json.loads(x) for x in r.stdout.splitlines() if x.strip()]
+    fr = [x["fraction"] for x in lines]
+    check(all("stage" in x for x in lines) and fr == sorted(fr) and fr[-1] == 1.0,
+          "progress: %d JSON lines, fractions non-decreasing to 1" % len(lines))
+    s = json.load(open(stats))
+    faces = s["lifting"]["faces"]
+    check(s["lifting"]["validity"]["invalid_after"] == 0, "stats: 0 invalid elements")
+    check(abs(faces - 300) <= 30, "coarse count %d near the 300 target (%s)" % (faces, s["decimation"]["message"]))
+
+    types, conns, xyz = read_msh(out)
+    check(types == [23], "one element type, Gmsh's P4 triangle (23): %s" % types)
+    conn = np.asarray(conns[0], dtype=np.int64).reshape(-1, 15)
+    check(len(conn) == faces, "%d elements read back, stats say %d" % (len(conn), faces))
+    counts = edge_sets(conn, 4)
+    check(all(c == 2 for c in counts.values()), "watertight: all %d element edges shared by exactly 2 elements"
+          % len(counts))
+    used = np.unique(conn)
+    P = np.array([xyz[t] for t in used.tolist()])
+    dn = torus_distance(P).max()
+    # The dense input's own error: distance of its facet centres to the exact torus.
+    V, T = [], []
+    for line in open(src):
+        w = line.split()
+        if w and w[0] == "v":
+            V.append([float(x) for x in w[1:4]])
+        elif w and w[0] == "f":
+            T.append([int(x.split("/")[0]) - 1 for x in w[1:4]])
+    V, T = np.array(V), np.array(T)
+    cent = (V[T[:, 0]] + V[T[:, 1]] + V[T[:, 2]]) / 3
+    dd = torus_distance(cent).max()
+    check(dn < dd, "coarse P4 nodes within %.2e of the exact torus, below the dense facets' %.2e" % (dn, dd))
+
+    # --ratio, msh22 binary.
+    out2 = os.path.join(work, "t22.msh")
+    r = subprocess.run([hoc, "coarsen", src, "-o", out2, "--order", "3", "--ratio", "0.1", "--format", "msh22",
+                        "--binary", "--threads", "1"], capture_output=True, text=True, timeout=300)
+    check(r.returncode == 0, "coarsen --ratio 0.1 --format msh22 --binary exits 0 (%s)" % r.stderr.strip())
+    if r.returncode == 0:
+        types, conns, _ = read_msh(out2)
+        n = len(conns[0]) // 10 if types == [21] else -1
+        check(types == [21] and abs(n - 461) <= 46, "msh22 binary: P3 triangles (21), %d elements (~461)" % n)
+
+    # Refusals: exit 2 (usage) and 3 (input), no output file left behind.
+    bad = os.path.join(work, "bad.msh")
+    for args, code, what in [(["--order", "4"], 2, "neither --faces nor --ratio"),
+                             (["--order", "4", "--faces", "10", "--ratio", "0.1"], 2, "both --faces and --ratio"),
+                             (["--order", "7", "--faces", "100"], 2, "order 7"),
+                             (["--order", "1", "--faces", "100"], 2, "order 1")]:
+        r = subprocess.run([hoc, "coarsen", src, "-o", bad] + args, capture_output=True, text=True, timeout=60)
+        check(r.returncode == code and not os.path.exists(bad), "%s: exit %d, no output" % (what, r.returncode))
+    empty = os.path.join(work, "empty.obj")
+    open(empty, "w").write("# nothing\n")
+    r = subprocess.run([hoc, "coarsen", empty, "-o", bad, "--order", "4", "--faces", "100"], capture_output=True,
+                       text=True, timeout=60)
+    check(r.returncode == 3 and not os.path.exists(bad), "empty input: exit %d, no output" % r.returncode)
+
+    print("%d failure(s)" % len(failures))
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
