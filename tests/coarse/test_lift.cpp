@@ -1,0 +1,170 @@
+// Coarse lifting: accuracy against the exact surface (sampled inside every element), validity,
+// conformity, features, determinism, refusals.
+#include "coarse/coarse_test_meshes.hpp"
+#include "engine/coarse/decimate.hpp"
+#include "engine/coarse/lift.hpp"
+#include "engine/coarse/surface_distance.hpp"
+#include "engine/core/error.hpp"
+#include "engine/curving/test_meshes.hpp"
+#include "engine/highorder/lagrange.hpp"
+
+#include <doctest/doctest.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <functional>
+
+using namespace hocurve;
+
+namespace {
+
+using Dist = std::function<double(const Eigen::Vector3d&)>;
+
+double max_abs(const Eigen::MatrixXd& P, const Dist& d) {
+  double m = 0;
+  for (Eigen::Index i = 0; i < P.rows(); ++i) m = std::max(m, std::abs(d(P.row(i).transpose())));
+  return m;
+}
+
+/// Largest gap between the two elements of an edge, evaluated along it from both sides
+/// (Lagrange maps at 9 points per edge): 0 for a conforming mesh.
+double conformity_gap(const HighOrderMesh& hm) {
+  const int p = hm.order;
+  const Topology T = build_topology(hm.F, static_cast<int>(hm.V.rows()));
+  double gap = 0;
+  for (int e = 0; e < T.num_edges(); ++e) {
+    if (T.edge_faces[e].size() != 2) continue;
+    Eigen::MatrixXd pts[2];
+    for (int s = 0; s < 2; ++s) {
+      const int f = T.edge_faces[e][s];
+      Eigen::MatrixXd uv(9, 2);
+      for (int k = 0; k < 9; ++k) {
+        const double t = (k + 0.5) / 9;
+        // Corner (u,v) of the reference triangle for each local vertex: (0,0), (1,0), (0,1).
+        Eigen::Vector2d c[3] = {{0, 0}, {1, 0}, {0, 1}}, a, b;
+        for (int j = 0; j < 3; ++j) {
+          if (hm.F(f, j) == T.E(e, 0)) a = c[j];
+          if (hm.F(f, j) == T.E(e, 1)) b = c[j];
+        }
+        uv.row(k) = ((1 - t) * a + t * b).transpose();
+      }
+      pts[s] = evaluate_triangle(element_nodes(hm, f), p, uv);
+    }
+    gap = std::max(gap, (pts[0] - pts[1]).rowwise().norm().maxCoeff());
+  }
+  return gap;
+}
+
+struct Case {
+  double dense = 0, straight = 0, curved = 0;
+  LiftResult lift;
+};
+
+Case run(const Mesh& fine, int target, int p, const Dist& dist) {
+  DecimateOptions dopt;
+  dopt.target_faces = target;
+  const DecimateResult D = decimate(fine, dopt);
+  REQUIRE(D.reached_target);
+  LiftOptions lopt;
+  lopt.order = p;
+  lopt.features = feature_options(dopt);
+  Case c;
+  c.lift = lift_coarse(fine, D, lopt);
+  c.dense = max_abs(sample_faces(fine, 8), dist);
+  c.straight = max_abs(sample_faces(D.coarse, 12), dist);
+  c.curved = max_abs(tessellate(c.lift.mesh, 12).V, dist);
+  MESSAGE(fine.num_faces() << " -> " << D.coarse.num_faces() << " P" << p << ": dense linear " << c.dense
+                           << ", straight coarse " << c.straight << ", coarse curved " << c.curved);
+  return c;
+}
+
+void check_case(const Case& c, int target) {
+  CHECK(c.lift.faces == target);
+  CHECK(c.curved <= c.dense);                 // fewer, curved elements, still closer than the input
+  CHECK(c.straight >= 10 * c.dense);          // the straight coarse mesh is far worse
+  CHECK(c.curved * 50 <= c.straight);
+  CHECK(c.lift.validity.invalid_after == 0);
+  CHECK(c.lift.validity.min_scaled_jacobian > 0);
+  CHECK(conformity_gap(c.lift.mesh) < 1e-12);
+}
+
+}  // namespace
+
+TEST_CASE("sphere 11.8k -> 500 P4: closer to the sphere than the dense input") {
+  const Case c = run(uv_sphere(60, 100), 500, 4, sphere_distance);
+  check_case(c, 500);
+  CHECK(c.lift.coarse_feature_edges > 0);  // the equator is an entity border: kept as a curve
+}
+
+TEST_CASE("torus 15k -> 640 P4: closer to the torus than the dense input") {
+  const Case c = run(torus_grid(125, 60, 1.0, 0.4), 640, 4,
+                     [](const Eigen::Vector3d& x) { return torus_distance(x, 1.0, 0.4); });
+  check_case(c, 640);
+}
+
+TEST_CASE("orders 2 and 6 on the sphere: valid, conforming, better than straight") {
+  for (int p : {2, 6}) {
+    const Case c = run(icosphere(4), 320, p, sphere_distance);
+    CHECK(c.lift.validity.invalid_after == 0);
+    CHECK(conformity_gap(c.lift.mesh) < 1e-12);
+    CHECK(c.curved * (p == 2 ? 5 : 100) < c.straight);
+  }
+}
+
+TEST_CASE("cube: feature curves and corners are kept, every node stays on the cube") {
+  const Mesh fine = coarse_test::cube(12);
+  DecimateOptions dopt;
+  dopt.target_faces = 120;
+  const DecimateResult D = decimate(fine, dopt);
+  LiftOptions lopt;
+  lopt.order = 3;
+  lopt.features = feature_options(dopt);
+  const LiftResult L = lift_coarse(fine, D, lopt);
+  CHECK(L.validity.invalid_after == 0);
+  CHECK(L.coarse_feature_edges >= 12);  // at least one coarse edge per cube edge
+  CHECK(L.curve_nodes > 0);
+  // Every node on the cube surface: its largest |coordinate| is 1.
+  const Eigen::MatrixXd X = all_nodes(L.mesh);
+  double off = 0;
+  for (Eigen::Index i = 0; i < X.rows(); ++i) off = std::max(off, std::abs(X.row(i).cwiseAbs().maxCoeff() - 1));
+  CHECK(off < 1e-9);
+  // The 8 corners of the cube are coarse vertices.
+  int corners = 0;
+  for (Eigen::Index i = 0; i < L.mesh.V.rows(); ++i)
+    corners += (L.mesh.V.row(i).cwiseAbs().array() > 1 - 1e-12).all();
+  CHECK(corners == 8);
+}
+
+TEST_CASE("deterministic: one thread and all threads give the same nodes") {
+  const Mesh fine = torus_grid(60, 30, 1.0, 0.4);
+  DecimateOptions dopt;
+  dopt.target_faces = 300;
+  const DecimateResult D = decimate(fine, dopt);
+  LiftOptions lopt;
+  lopt.order = 4;
+  lopt.features = feature_options(dopt);
+  Eigen::MatrixXd one;
+  {
+    tbb::global_control gc(tbb::global_control::max_allowed_parallelism, 1);
+    one = all_nodes(lift_coarse(fine, D, lopt).mesh);
+  }
+  const Eigen::MatrixXd all = all_nodes(lift_coarse(fine, D, lopt).mesh);
+  REQUIRE(one.rows() == all.rows());
+  CHECK((one - all).cwiseAbs().maxCoeff() == 0.0);
+}
+
+TEST_CASE("refusals: order outside 2..6, decimation without its map") {
+  const Mesh fine = icosphere(2);
+  DecimateOptions dopt;
+  dopt.target_faces = 80;
+  const DecimateResult D = decimate(fine, dopt);
+  LiftOptions lopt;
+  lopt.order = 7;
+  CHECK_THROWS_AS(lift_coarse(fine, D, lopt), UsageError);
+  lopt.order = 1;
+  CHECK_THROWS_AS(lift_coarse(fine, D, lopt), UsageError);
+  lopt.order = 3;
+  dopt.build_map = false;
+  CHECK_THROWS_AS(lift_coarse(fine, decimate(fine, dopt), lopt), UsageError);
+  CHECK_THROWS_AS(lift_coarse(icosphere(3), D, lopt), UsageError);  // another input than the map's
+}
