@@ -121,6 +121,15 @@ struct FitResult {
 FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
                      const SupportPoints* support, const FitOptions& opt = {});
 
+/// Reusable working memory of fit_wedge: fit_wedges keeps one per thread. Results never
+/// depend on it; the overloads without it build a fresh one.
+struct FitScratch {
+  StencilScratch stencil;
+  StampSet seen;             ///< stencil vertices inside the normal cone
+  std::vector<int> pts;
+  std::vector<double> sorted;
+};
+
 /// The same without the sanity bound (used by fit_wedge).
 LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
                              const SupportPoints* support, const std::vector<int>& support_start,
@@ -131,5 +140,14 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
 LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
                    const SupportPoints* support, const std::vector<int>& support_start,
                    const std::vector<int>& support_index, const FitOptions& opt);
+
+/// fit_wedge and fit_wedge_unchecked with caller-provided working memory (same results).
+LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
+                   const SupportPoints* support, const std::vector<int>& support_start,
+                   const std::vector<int>& support_index, const FitOptions& opt, FitScratch& scratch);
+LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
+                             const SupportPoints* support, const std::vector<int>& support_start,
+                             const std::vector<int>& support_index, const FitOptions& opt,
+                             FitScratch& scratch);
 
 }  // namespace hocurve

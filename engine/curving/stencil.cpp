@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <numeric>
-#include <unordered_set>
 
 namespace hocurve {
 
@@ -20,23 +19,27 @@ Wedges build_wedges(const Mesh& mesh, const Topology& T, const std::vector<char>
   W.corner_wedge = Eigen::MatrixXi::Constant(nf, 3, -1);
   W.vertex_wedge_start.assign(nv + 1, 0);
   W.wedge_start.push_back(0);
+  W.wedge_vertex.reserve(nv);
+  W.wedge_start.reserve(static_cast<size_t>(nv) + 1);
+  W.wedge_faces.reserve(3 * static_cast<size_t>(nf));
   auto is_feature = [&](int e) {
     return (!edge_feature.empty() && edge_feature[e]) || T.edge_faces[e].size() != 2;
   };
-  std::vector<int> parent;
+  // Per-vertex buffers, reused: this runs once per vertex.
+  std::vector<int> faces, parent, group_id, group_size, group_pos, order;
   for (int v = 0; v < nv; ++v) {
     auto [fb, fe] = T.faces_of(v);
-    const int k = static_cast<int>(fe - fb);
-    std::vector<int> faces(fb, fe);
+    faces.assign(fb, fe);
     std::sort(faces.begin(), faces.end());
     faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-    parent.resize(faces.size());
+    const int k = static_cast<int>(faces.size());
+    parent.resize(k);
     std::iota(parent.begin(), parent.end(), 0);
     auto local = [&](int f) {
       return static_cast<int>(std::lower_bound(faces.begin(), faces.end(), f) - faces.begin());
     };
     // Join faces that share a non-feature manifold edge incident to v.
-    for (size_t a = 0; a < faces.size(); ++a) {
+    for (int a = 0; a < k; ++a) {
       const int f = faces[a];
       for (int j = 0; j < 3; ++j) {
         if (mesh.F(f, j) != v) continue;
@@ -44,53 +47,74 @@ Wedges build_wedges(const Mesh& mesh, const Topology& T, const std::vector<char>
           if (is_feature(e)) continue;
           for (int g : T.edge_faces[e])
             if (g != f) {
-              int ra = find_root(parent, static_cast<int>(a)), rb = find_root(parent, local(g));
+              int ra = find_root(parent, a), rb = find_root(parent, local(g));
               if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
             }
         }
       }
     }
-    // Number the groups by their smallest face (faces are sorted: first appearance order).
-    std::vector<int> group_id(faces.size(), -1);
-    std::vector<std::vector<int>> groups;
-    for (size_t a = 0; a < faces.size(); ++a) {
-      int r = find_root(parent, static_cast<int>(a));
-      if (group_id[r] < 0) group_id[r] = static_cast<int>(groups.size()), groups.emplace_back();
-      groups[group_id[r]].push_back(faces[a]);
+    // Number the groups by their smallest face (faces are sorted: first appearance order),
+    // then write each group's faces in ascending order (a counting sort by group).
+    group_id.assign(k, -1);
+    group_size.clear();
+    order.resize(k);
+    for (int a = 0; a < k; ++a) {
+      const int r = find_root(parent, a);
+      if (group_id[r] < 0) group_id[r] = static_cast<int>(group_size.size()), group_size.push_back(0);
+      order[a] = group_id[r];
+      ++group_size[group_id[r]];
     }
-    for (auto& g : groups) {
-      const int w = W.num_wedges();
+    const int ng = static_cast<int>(group_size.size());
+    const int w0 = W.num_wedges();
+    const size_t base = W.wedge_faces.size();
+    W.wedge_faces.resize(base + k);
+    group_pos.resize(ng);
+    for (int g = 0, pos = 0; g < ng; ++g) {
+      group_pos[g] = pos;
+      pos += group_size[g];
       W.wedge_vertex.push_back(v);
-      for (int f : g) {
-        W.wedge_faces.push_back(f);
-        for (int j = 0; j < 3; ++j)
-          if (mesh.F(f, j) == v) W.corner_wedge(f, j) = w;
-      }
-      W.wedge_start.push_back(static_cast<int>(W.wedge_faces.size()));
+      W.wedge_start.push_back(static_cast<int>(base) + pos);
+    }
+    for (int a = 0; a < k; ++a) {
+      const int f = faces[a];
+      const int g = order[a];
+      W.wedge_faces[base + group_pos[g]++] = f;
+      for (int j = 0; j < 3; ++j)
+        if (mesh.F(f, j) == v) W.corner_wedge(f, j) = w0 + g;
     }
     W.vertex_wedge_start[v + 1] = W.num_wedges();
-    (void)k;
   }
   return W;
 }
 
 Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
                      const StencilOptions& opt) {
+  StencilScratch scratch;
+  return grow_stencil(mesh, T, W, w, opt, scratch);
+}
+
+Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
+                     const StencilOptions& opt, StencilScratch& scratch) {
+  (void)T;
+  StampSet& region = scratch.faces;
+  StampSet& verts = scratch.vertices;
+  std::vector<int>& frontier = scratch.frontier;
+  std::vector<int>& new_faces = scratch.new_faces;
+  region.clear();
+  verts.clear();
   Stencil S;
   const int centre = W.wedge_vertex[w];
-  std::unordered_set<int> region, verts;
-  std::vector<int> new_faces(W.wedge_faces.begin() + W.wedge_start[w],
-                             W.wedge_faces.begin() + W.wedge_start[w + 1]);
+  new_faces.assign(W.wedge_faces.begin() + W.wedge_start[w], W.wedge_faces.begin() + W.wedge_start[w + 1]);
   S.vertices.push_back(centre);
   verts.insert(centre);
-  for (int f : new_faces) region.insert(f);
-  std::vector<int> frontier;
+  for (int f : new_faces)
+    if (region.insert(f)) S.faces.push_back(f);
   auto add_vertices_of = [&](const std::vector<int>& faces) {
     frontier.clear();
     for (int f : faces)
       for (int j = 0; j < 3; ++j) {
         int u = mesh.F(f, j);
-        if (verts.insert(u).second) frontier.push_back(u);
+        if (verts.insert(u)) frontier.push_back(u);
       }
     std::sort(frontier.begin(), frontier.end());
     S.vertices.insert(S.vertices.end(), frontier.begin(), frontier.end());
@@ -106,20 +130,20 @@ Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w
       for (int uw = W.vertex_wedge_start[u]; uw < W.vertex_wedge_start[u + 1]; ++uw) {
         const int* b = W.wedge_faces.data() + W.wedge_start[uw];
         const int* e = W.wedge_faces.data() + W.wedge_start[uw + 1];
-        bool touched = std::any_of(b, e, [&](int f) { return region.count(f) > 0; });
-        if (!touched) continue;
+        // u came from a region face, so u's only wedge (the usual case) is touched.
+        const bool only = W.vertex_wedge_start[u + 1] - W.vertex_wedge_start[u] == 1;
+        if (!only && !std::any_of(b, e, [&](int f) { return region.contains(f); })) continue;
         for (const int* p = b; p != e; ++p)
-          if (region.insert(*p).second) new_faces.push_back(*p);
+          if (region.insert(*p)) new_faces.push_back(*p);
       }
     }
     if (new_faces.empty()) break;
+    S.faces.insert(S.faces.end(), new_faces.begin(), new_faces.end());
     std::sort(new_faces.begin(), new_faces.end());
     add_vertices_of(new_faces);
     ++S.rings;
   }
-  S.faces.assign(region.begin(), region.end());
   std::sort(S.faces.begin(), S.faces.end());
-  (void)T;
   return S;
 }
 

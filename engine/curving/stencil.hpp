@@ -6,6 +6,7 @@
 #include "engine/curving/features.hpp"
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <vector>
 
 namespace hocurve {
@@ -48,5 +49,68 @@ struct Stencil {
 /// that vertex's wedges already touched by the region, so the region never crosses a feature.
 Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
                      const StencilOptions& opt);
+
+/// A set of non-negative integers that empties in O(1): open addressing over (key, stamp)
+/// slots, so repeated per-vertex work (one instance per thread) neither allocates nor leaves
+/// L1 (a stencil's few hundred faces; a dense #F array of marks missed the cache on every test).
+class StampSet {
+ public:
+  /// Empties the set.
+  void clear() {
+    size_ = 0;
+    if (++stamp_ == 0) {
+      for (Slot& s : slots_) s.stamp = 0;
+      stamp_ = 1;
+    }
+  }
+  /// True when i was not yet a member.
+  bool insert(int i) {
+    if (2 * (size_ + 1) > slots_.size()) grow();
+    Slot& s = slots_[find(i)];
+    if (s.stamp == stamp_) return false;
+    s = {i, stamp_};
+    ++size_;
+    return true;
+  }
+  bool contains(int i) const {
+    if (slots_.empty()) return false;
+    const Slot& s = slots_[find(i)];
+    return s.stamp == stamp_;
+  }
+
+ private:
+  struct Slot { int key = 0; unsigned stamp = 0; };
+  std::vector<Slot> slots_;
+  size_t size_ = 0;
+  unsigned stamp_ = 1;
+  int shift_ = 32;
+  /// The slot holding i, or the empty slot where it would go (linear probing).
+  size_t find(int i) const {
+    const size_t mask = slots_.size() - 1;
+    size_t h = (static_cast<unsigned>(i) * 0x9E3779B1u) >> shift_;
+    while (slots_[h].stamp == stamp_ && slots_[h].key != i) h = (h + 1) & mask;
+    return h;
+  }
+  void grow() {
+    std::vector<Slot> old;
+    old.swap(slots_);
+    const size_t n = old.empty() ? 256 : 2 * old.size();
+    slots_.assign(n, Slot{});
+    shift_ = 32;
+    for (size_t m = n; m > 1; m >>= 1) --shift_;
+    for (const Slot& s : old)
+      if (s.stamp == stamp_) slots_[find(s.key)] = s;
+  }
+};
+
+/// Reusable working memory of grow_stencil (one per thread). Results never depend on it.
+struct StencilScratch {
+  StampSet faces, vertices;
+  std::vector<int> frontier, new_faces;
+};
+
+/// grow_stencil with caller-provided working memory (the same stencil, no hashing).
+Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
+                     const StencilOptions& opt, StencilScratch& scratch);
 
 }  // namespace hocurve
