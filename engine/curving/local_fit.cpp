@@ -27,31 +27,152 @@ void monomials(double u, double v, int p, double* out) {
     for (int j = d; j >= 0; --j) out[k++] = pu[j] * pv[d - j];
 }
 
-/// Column-pivoted QR solve of min |As c - b| for a column-scaled As (scale: the factors that
-/// were applied, multiplied back into c); false when rank deficient.
-bool solve_scaled(const Eigen::Ref<const Eigen::MatrixXd>& As, const Eigen::VectorXd& b,
-                  const Eigen::VectorXd& scale, double rank_tol, Eigen::VectorXd& c,
-                  double* pivot_ratio = nullptr, bool basic = false) {
-  const Eigen::Index m = As.cols();
+double dot(const double* a, const double* b, int n) {
+  double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+  int r = 0;
+  for (; r + 4 <= n; r += 4) s0 += a[r] * b[r], s1 += a[r + 1] * b[r + 1], s2 += a[r + 2] * b[r + 2], s3 += a[r + 3] * b[r + 3];
+  for (; r < n; ++r) s0 += a[r] * b[r];
+  return (s0 + s1) + (s2 + s3);
+}
+
+/// Householder QR of a small k x m least-squares system (k >= m), optionally with column
+/// pivoting: the algorithm of Eigen's ColPivHouseholderQR (largest remaining column norm
+/// first, norms downdated, recomputed when cancellation makes the downdate unreliable), with
+/// plain column loops instead of Eigen's dynamic-size kernels, whose dispatch costs more than
+/// the arithmetic at these sizes (14-27 columns, 20-130 rows). Same solutions up to round-off.
+class SmallQR {
+ public:
+  /// Factors the first m columns of A (column-major).
+  void compute(const Eigen::MatrixXd& A, int m, bool pivot) {
+    k_ = static_cast<int>(A.rows());
+    m_ = m;
+    qr_ = A.leftCols(m);
+    tau_.assign(m, 0.0);
+    perm_.resize(m);
+    std::vector<double>& nrm = nrm_;
+    std::vector<double>& direct = direct_;
+    if (pivot) {
+      nrm.resize(m);
+      direct.resize(m);
+      for (int j = 0; j < m; ++j) nrm[j] = direct[j] = std::sqrt(dot(&qr_(0, j), &qr_(0, j), k_));
+    }
+    for (int j = 0; j < m; ++j) perm_[j] = j;
+    const double downdate_threshold = std::sqrt(std::numeric_limits<double>::epsilon());
+    for (int i = 0; i < m; ++i) {
+      if (pivot) {
+        int best = i;
+        for (int j = i + 1; j < m; ++j)
+          if (nrm[j] > nrm[best]) best = j;
+        if (best != i) {
+          qr_.col(i).swap(qr_.col(best));
+          std::swap(nrm[i], nrm[best]);
+          std::swap(direct[i], direct[best]);
+          std::swap(perm_[i], perm_[best]);
+        }
+      }
+      // Reflector H = I - tau v v^T, v = (1, essential), zeroing column i below row i.
+      double* ci = &qr_(0, i);
+      const int len = k_ - i - 1;
+      const double c0 = ci[i];
+      const double tail = dot(ci + i + 1, ci + i + 1, len);
+      if (tail <= std::numeric_limits<double>::min()) {
+        tau_[i] = 0;
+        for (int r = i + 1; r < k_; ++r) ci[r] = 0;
+      } else {
+        double beta = std::sqrt(c0 * c0 + tail);
+        if (c0 >= 0) beta = -beta;
+        const double inv = 1.0 / (c0 - beta);
+        for (int r = i + 1; r < k_; ++r) ci[r] *= inv;
+        tau_[i] = (beta - c0) / beta;
+        ci[i] = beta;
+        for (int j = i + 1; j < m; ++j) {
+          double* cj = &qr_(0, j);
+          const double w = tau_[i] * (cj[i] + dot(ci + i + 1, cj + i + 1, len));
+          cj[i] -= w;
+          for (int r = i + 1; r < k_; ++r) cj[r] -= w * ci[r];
+        }
+      }
+      if (pivot)
+        for (int j = i + 1; j < m; ++j) {
+          if (nrm[j] == 0) continue;
+          double t = std::abs(qr_(i, j)) / nrm[j];
+          t = std::max(0.0, (1 + t) * (1 - t));
+          const double q = nrm[j] / direct[j];
+          if (t * q * q <= downdate_threshold) {
+            nrm[j] = direct[j] = std::sqrt(dot(&qr_(i + 1, j), &qr_(i + 1, j), len));
+          } else {
+            nrm[j] *= std::sqrt(t);
+          }
+        }
+    }
+  }
+  double diag(int i) const { return qr_(i, i); }
+  /// Numerical rank as ColPivHouseholderQR counts it: pivots above tol x the largest.
+  int rank(double tol) const {
+    double mx = 0;
+    for (int i = 0; i < m_; ++i) mx = std::max(mx, std::abs(diag(i)));
+    int r = 0;
+    for (int i = 0; i < m_; ++i) r += std::abs(diag(i)) > mx * tol;
+    return r;
+  }
+  /// Q^T b (all m reflectors).
+  void apply_qt(const Eigen::VectorXd& b, Eigen::VectorXd& qtb) const {
+    qtb = b;
+    for (int i = 0; i < m_; ++i) {
+      if (tau_[i] == 0) continue;
+      const double* ci = &qr_(0, i);
+      const double t = tau_[i] * (qtb[i] + dot(ci + i + 1, qtb.data() + i + 1, k_ - i - 1));
+      qtb[i] -= t;
+      for (int r = i + 1; r < k_; ++r) qtb[r] -= t * ci[r];
+    }
+  }
+  /// Least-squares solution on the first mm factored columns from Q^T b, in the original
+  /// column order.
+  void solve(const Eigen::VectorXd& qtb, int mm, Eigen::VectorXd& x) const {
+    y_.resize(mm);
+    for (int i = mm - 1; i >= 0; --i) {
+      double s = qtb[i];
+      for (int j = i + 1; j < mm; ++j) s -= qr_(i, j) * y_[j];
+      y_[i] = s / diag(i);
+    }
+    x.resize(mm);
+    for (int i = 0; i < mm; ++i) x[perm_[i]] = y_[i];
+  }
+
+ private:
+  int k_ = 0, m_ = 0;
+  Eigen::MatrixXd qr_;
+  std::vector<double> tau_, nrm_, direct_;
+  mutable std::vector<double> y_;
+  std::vector<int> perm_;
+};
+
+/// Column-pivoted QR solve of min |As c - b| over the first m columns of a column-scaled As
+/// (scale: the factors that were applied, multiplied back into c); false when rank deficient.
+/// basic: minimum-norm solution of the system truncated at rank tolerance rank_tol.
+bool solve_scaled(const Eigen::MatrixXd& As, int m, const Eigen::VectorXd& b, const Eigen::VectorXd& scale,
+                  double rank_tol, Eigen::VectorXd& c, double* pivot_ratio = nullptr, bool basic = false) {
   if (basic) {
     // Minimum-norm solution of the rank-truncated system: directions the points leave
     // (nearly) open get no curvature instead of arbitrary pivoting choices.
     Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod;
     cod.setThreshold(rank_tol);
-    cod.compute(As);
+    cod.compute(As.leftCols(m));
     c = cod.solve(b);
     c.array() *= scale.head(m).array();
     if (pivot_ratio) *pivot_ratio = 0;
     return c.allFinite();
   }
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(As);
-  qr.setThreshold(rank_tol);
-  if (qr.rank() < m) return false;
+  SmallQR qr;
+  qr.compute(As, m, true);
+  if (qr.rank(rank_tol) < m) return false;
   if (pivot_ratio) {
-    const double r0 = std::abs(qr.matrixQR()(0, 0));
-    *pivot_ratio = r0 > 0 ? std::abs(qr.matrixQR()(m - 1, m - 1)) / r0 : 0.0;
+    const double r0 = std::abs(qr.diag(0));
+    *pivot_ratio = r0 > 0 ? std::abs(qr.diag(m - 1)) / r0 : 0.0;
   }
-  c = qr.solve(b);
+  Eigen::VectorXd qtb;
+  qr.apply_qt(b, qtb);
+  qr.solve(qtb, m, c);
   c.array() *= scale.head(m).array();
   return c.allFinite();
 }
@@ -153,30 +274,29 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
   // every leading-columns least-squares solution (truncate R and Q^T b), instead of one
   // pivoted QR per lower degree. Same solutions up to round-off (full column rank is checked
   // on R's diagonal, as the pivoted rank test would).
-  Eigen::HouseholderQR<Eigen::MatrixXd> hqr;
-  Eigen::VectorXd qtb;
+  SmallQR hqr;
+  Eigen::VectorXd qtb, ct;
   bool have_hqr = false;
   for (int p = degree; p >= 1; --p) {
     const int m = fit_coefficients(p);
     if (k < m || m > nonzero) continue;
     Eigen::VectorXd c;
     double pivot = 0;
-    if (!solve_scaled(A.leftCols(m), b, scale, basic ? opt.support_condition : opt.rank_tol, c, &pivot, basic)) continue;
+    if (!solve_scaled(A, m, b, scale, basic ? opt.support_condition : opt.rank_tol, c, &pivot, basic)) continue;
     bool ok = true;
     if (!basic && opt.safeguard && p >= 3 && k < opt.safeguard_skip * m) {
       if (!have_hqr) {
-        hqr.compute(A.leftCols(fit_coefficients(p - 1)));
-        qtb = b;
-        qtb.applyOnTheLeft(hqr.householderQ().adjoint());
+        hqr.compute(A, fit_coefficients(p - 1), false);
+        hqr.apply_qt(b, qtb);
         have_hqr = true;
       }
-      const Eigen::MatrixXd& R = hqr.matrixQR();
       for (int d = p - 1; d >= 2 && ok; --d) {
         const int md = fit_coefficients(d);
         double rmax = 0, rmin = std::numeric_limits<double>::infinity();
-        for (int j = 0; j < md; ++j) rmax = std::max(rmax, std::abs(R(j, j))), rmin = std::min(rmin, std::abs(R(j, j)));
+        for (int j = 0; j < md; ++j)
+          rmax = std::max(rmax, std::abs(hqr.diag(j))), rmin = std::min(rmin, std::abs(hqr.diag(j)));
         if (!(rmin > opt.rank_tol * rmax)) { ok = false; break; }
-        Eigen::VectorXd ct = R.topLeftCorner(md, md).triangularView<Eigen::Upper>().solve(qtb.head(md));
+        hqr.solve(qtb, md, ct);
         ct.array() *= scale.head(md).array();
         if (!ct.allFinite()) { ok = false; break; }
         for (int j = fit_coefficients(d - 1); j < md; ++j) {
