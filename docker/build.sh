@@ -38,6 +38,7 @@ done
 # The compile shares the machine: lower priority for everything below.
 NICE=(nice -n 10)
 start=$(date +%s)
+with_base=""
 
 if [ "$BASE_MODE" = rebuild ] || { [ "$BASE_MODE" = auto ] && ! podman image exists "$BASE_TAG"; }; then
   rootfs=$(mktemp -d /tmp/hocurve-rootfs.XXXXXX)
@@ -68,14 +69,17 @@ EOF
   rm -rf "$rootfs"
   trap - EXIT
   echo "build.sh: base image $BASE_TAG built in $(( $(date +%s) - start )) s"
+  with_base=yes
 elif ! podman image exists "$BASE_TAG"; then
   echo "build.sh: --skip-base but $BASE_TAG does not exist" >&2
   exit 1
 fi
 
+image_start=$(date +%s)
 "${NICE[@]}" podman build --isolation chroot --format docker --layers \
   --build-arg "BASE=$BASE_TAG" --build-arg "JOBS=$JOBS" \
   -f docker/Dockerfile -t "$TAG" .
 size=$(podman image inspect --format '{{.Size}}' "$TAG")
-echo "build.sh: built $TAG ($(( size / 1000000 )) MB) in $(( $(date +%s) - start )) s"
-echo "build.sh: smoke test: docker/smoke_test.sh $TAG"
+[ -z "$with_base" ] || with_base=" ($(( $(date +%s) - start )) s with the base image)"
+echo "build.sh: built $TAG ($(( size / 1000000 )) MB) in $(( $(date +%s) - image_start )) s$with_base"
+echo "build.sh: smoke test: docker/smoke_test.sh $TAG   (RUN_OPTS=... for podman run options, see there)"

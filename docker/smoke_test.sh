@@ -6,7 +6,11 @@
 #   ORDER  default 3
 # Environment: MODE=auto|run|chroot (auto: `podman run`, and when the OCI runtime cannot start a
 # container on this machine — e.g. it may not set rlimits — the image's exported filesystem in a
-# chroot), PORT (loopback port; default: a free one), KEEP=1 keeps the work directory.
+# chroot), PORT (loopback port; default: a free one), KEEP=1 keeps the work directory,
+# RUN_OPTS (extra `podman run` options, word-split; e.g. where crun refuses a hybrid cgroup tree and
+# rlimits cannot be raised: RUN_OPTS="--runtime runc --ulimit nofile=20000:20000 --ulimit nproc=4096:4096",
+# and "--read-only --tmpfs /tmp --cap-drop ALL --security-opt no-new-privileges" to run the image
+# hardened as docker/compose.yaml and docker/k8s/ do).
 # The daemon runs as the image says (entrypoint, user, environment, working directory) except that
 # it listens on 127.0.0.1:PORT. Steps: /readyz, /healthz, /v1/info; POST /v1/jobs with the curl
 # client scripts, poll, download; the .msh read back with Gmsh (/usr/bin/python3) and checked against
@@ -19,6 +23,7 @@ IMAGE="${1:-localhost/hocurve:latest}"
 MESH="${2:-examples/torus.stl}"
 ORDER="${3:-3}"
 MODE="${MODE:-auto}"
+read -r -a RUN_OPTS <<<"${RUN_OPTS:-}"
 PY=/usr/bin/python3
 name="hocurve-smoke-$$"
 WORK=$(mktemp -d /tmp/hocurve-smoke.XXXXXX)
@@ -71,21 +76,29 @@ IMG_PORT=$(fmt '{{range $p, $_ := .Config.ExposedPorts}}{{$p}}{{end}}'); IMG_POR
 say "image $IMAGE: user $IMG_USER, entrypoint ${IMG_ENTRY[*]}, port $IMG_PORT, healthcheck ${IMG_HEALTH[*]}"
 
 # ---- starting and stopping the daemon -------------------------------------------------------------
+# podman without systemd (as here) cannot add the transient timer that runs the HEALTHCHECK
+# periodically and says so on every start/stop; those lines are dropped, everything else is shown.
+pm() {
+  local rc=0
+  podman "$@" 2>"$WORK/podman.err" || rc=$?
+  grep -v 'unable to get systemd connection' "$WORK/podman.err" >&2 || true
+  return $rc
+}
 start_run() {  # podman run; returns non-zero when the OCI runtime cannot start the container
   container="$name"
   podman rm -f "$container" >/dev/null 2>&1 || true
-  podman run -d --name "$container" -p "127.0.0.1:$PORT:$IMG_PORT" -v "$name-data:/var/lib/hocurve" \
-    "$IMAGE" >"$WORK/run.out" 2>&1 || { cat "$WORK/run.out" >&2; return 1; }
+  pm run -d --name "$container" -p "127.0.0.1:$PORT:$IMG_PORT" -v "$name-data:/var/lib/hocurve" \
+    "${RUN_OPTS[@]}" "$IMAGE" >/dev/null || return 1
   daemon_pid=$(podman inspect --format '{{.State.Pid}}' "$container")
   podman logs -f "$container" >"$LOG" 2>&1 &
 }
 restart_run() {
-  podman start "$container" >/dev/null
+  pm start "$container" >/dev/null
   daemon_pid=$(podman inspect --format '{{.State.Pid}}' "$container")
   podman logs -f --since 1s "$container" >>"$LOG" 2>&1 &
 }
 stop_run() {  # SIGTERM (podman stop), exit status of the daemon in $stop_status
-  podman stop -t 40 "$container" >/dev/null
+  pm stop -t 40 "$container" >/dev/null
   stop_status=$(podman inspect --format '{{.State.ExitCode}}' "$container")
 }
 
@@ -95,7 +108,7 @@ export_rootfs() {
   local cid
   cid=$(podman create "$IMAGE")
   podman export "$cid" | tar -C "$ROOTFS" --numeric-owner -xpf -
-  podman rm "$cid" >/dev/null
+  pm rm -v "$cid" >/dev/null   # -v: also the anonymous volume of the image's VOLUME
   say "exported the image filesystem to $ROOTFS ($(du -sh "$ROOTFS" | cut -f1))"
 }
 start_chroot() {
