@@ -48,12 +48,28 @@ FeatureMarks mark_features(const Mesh& m, const Topology& T, const DecimateOptio
     Features f = detect_features(m, T, fo);
     fm.edge = std::move(f.edge_feature);
     fm.corner = std::move(f.vertex_corner);
-    // Drop short open curves made only of sharp edges (boundaries and entity borders stay).
+    // Drop short open curves made only of sharp edges (boundaries and entity borders stay);
+    // soft ones (mean dihedral below soft_feature_angle_deg: the creases of scans and organic
+    // meshes, not machined edges) up to min_soft_curve_edges, since they pin the decimation.
+    std::vector<double> angle_sum(f.curves.size(), 0);
+    for (int e = 0; e < T.num_edges(); ++e) {
+      const int c = f.edge_curve[e];
+      const auto& ef = T.edge_faces[e];
+      if (c < 0 || ef.size() != 2) continue;
+      Eigen::Vector3d n[2];
+      for (int k = 0; k < 2; ++k) {
+        const Eigen::Vector3d a = m.V.row(m.F(ef[k], 0)), b = m.V.row(m.F(ef[k], 1)), d = m.V.row(m.F(ef[k], 2));
+        n[k] = (b - a).cross(d - a);
+      }
+      angle_sum[c] += std::atan2(n[0].cross(n[1]).norm(), n[0].dot(n[1]));
+    }
     std::vector<char> drop(f.curves.size(), 0);
     for (size_t c = 0; c < f.curves.size(); ++c) {
       const auto& cv = f.curves[c];
-      drop[c] = cv.size() >= 2 && cv.front() != cv.back() &&
-                static_cast<int>(cv.size()) - 1 < opt.min_feature_curve_edges;
+      const int edges = static_cast<int>(cv.size()) - 1;
+      if (cv.size() < 2 || cv.front() == cv.back()) continue;
+      const bool soft = angle_sum[c] / edges < opt.soft_feature_angle_deg * std::numbers::pi / 180;
+      drop[c] = edges < (soft ? opt.min_soft_curve_edges : opt.min_feature_curve_edges);
     }
     for (int e = 0; e < T.num_edges(); ++e) {
       const int c = f.edge_curve[e];

@@ -18,6 +18,10 @@ struct DecimateOptions {
   /// Open sharp-edge curves with fewer edges than this are ignored: on scanned or organic
   /// surfaces such fragments are noise, and their corners would pin the decimation.
   int min_feature_curve_edges = 4;
+  /// Soft open curves (mean dihedral angle below soft_feature_angle_deg) need this many edges:
+  /// longer crease fragments of scans also pin the decimation and cost accuracy (bench/LIFT.md).
+  int min_soft_curve_edges = 12;
+  double soft_feature_angle_deg = 60.0;
   double min_angle_deg = 10.0;      ///< new triangles must keep this smallest 3D angle (or not get worse)
   double max_normal_change_deg = 60.0;  ///< a face's normal may turn at most this much in one collapse
   double uv_min_quality = 0.01;     ///< smallest accepted UV triangle quality in the flattened patches

@@ -2,8 +2,10 @@
 // refused input, scale invariance.
 #include "coarse/coarse_test_meshes.hpp"
 #include "engine/coarse/decimate.hpp"
+#include "engine/coarse/surface_distance.hpp"
 #include "engine/core/error.hpp"
 #include "engine/core/topology.hpp"
+#include "engine/io/read_mesh.hpp"
 
 #include <doctest/doctest.h>
 #include <cmath>
@@ -100,6 +102,48 @@ TEST_CASE("cube: corners stay, edges (rims) stay straight, faces stay on one sid
     axis[d] = side;
     CHECK(face_normal(R.coarse, f).normalized().dot(axis) > 1 - 1e-9);
   }
+}
+
+TEST_CASE("one-entity cube: short hard curves (90 degrees, 6 edges) and their corners stay") {
+  Mesh fine = coarse_test::cube(6);
+  fine.face_entity.resize(0);  // the rims are sharp edges only, no entity borders
+  DecimateOptions opt;
+  opt.target_faces = 40;
+  REQUIRE(opt.min_soft_curve_edges > 6);  // the soft rule would drop them: the angle decides
+  const DecimateResult R = decimate(fine, opt);
+  MESSAGE(R.message);
+  CHECK(R.corners == 8);
+  CHECK(R.feature_edges == 12 * 6);
+  // Every coarse edge lies in one side of the cube: no face cuts across a rim.
+  for (int f = 0; f < R.coarse.num_faces(); ++f) {
+    int common = 0;
+    for (int d = 0; d < 3; ++d) {
+      bool all = true;
+      for (int j = 0; j < 3; ++j) all = all && std::abs(std::abs(R.coarse.V(R.coarse.F(f, j), d)) - 1) < 1e-12;
+      common += all;
+    }
+    CHECK(common >= 1);
+  }
+}
+
+TEST_CASE("bunny: soft crease fragments do not pin the decimation") {
+  // The closed bunny has short open creases of 35-60 degrees (scan and remeshing noise): kept as
+  // features up to min_soft_curve_edges, they freeze vertices and the ear tips are cut off.
+  const Mesh fine = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/bunny_closed.obj").mesh;
+  DecimateOptions opt;
+  opt.target_ratio = 0.04;
+  opt.build_map = false;
+  const DecimateResult now = decimate(fine, opt);
+  opt.min_soft_curve_edges = opt.min_feature_curve_edges;  // soft curves treated as hard ones
+  const DecimateResult pinned = decimate(fine, opt);
+  const double h_now = hausdorff_distance(fine, now.coarse, 4).hausdorff();
+  const double h_pinned = hausdorff_distance(fine, pinned.coarse, 4).hausdorff();
+  MESSAGE("Hausdorff: " << h_now << " (soft creases dropped), " << h_pinned << " (kept); feature edges "
+                        << now.feature_edges << " / " << pinned.feature_edges);
+  CHECK(now.reached_target);
+  CHECK(now.feature_edges < pinned.feature_edges);
+  CHECK(h_now < 0.5 * h_pinned);
+  CHECK(check_closed_manifold(now.coarse) == 2);
 }
 
 TEST_CASE("an unreachable target is reported, not hidden") {
