@@ -541,7 +541,11 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
   std::vector<int> vmap(nv, -1);
   int ncv = 0;
   for (int v = 0; v < nv; ++v)
-    if (D.v_alive[v] && !D.vf[v].empty()) vmap[v] = ncv++, R.coarse_vertex_origin.push_back(v);
+    if (D.v_alive[v] && !D.vf[v].empty()) {
+      vmap[v] = ncv++;
+      R.coarse_vertex_origin.push_back(v);
+      R.coarse_vertex_feature.push_back(D.vfeat[v]);
+    }
   R.coarse.V.resize(ncv, 3);
   for (int v = 0; v < nv; ++v)
     if (vmap[v] >= 0) R.coarse.V.row(vmap[v]) = D.X[v].transpose();

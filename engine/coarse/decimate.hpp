@@ -44,6 +44,8 @@ struct DecimateResult {
   Mesh coarse;                      ///< keeps face entities and physical groups of the input
   CoarseMap map;                    ///< empty when build_map is false
   std::vector<int> coarse_vertex_origin;  ///< coarse vertex -> the fine vertex it continues
+  /// Coarse vertex on a feature curve the decimation kept: it never moved (it sits on its origin).
+  std::vector<char> coarse_vertex_feature;
   int target_faces = 0;
   bool reached_target = false;
   std::string message;              ///< one line: what was reached, and why it stopped

@@ -42,7 +42,11 @@ std::vector<char> coarse_feature_edges(const Mesh& coarse, const Topology& Tc, c
     if (faces.size() != 2) { feat[e] = 1; return; }
     if (coarse.entity_of(faces[0]) != coarse.entity_of(faces[1])) { feat[e] = 1; return; }
     const int a = Tc.E(e, 0), b = Tc.E(e, 1);
-    if (vf.empty() || !vf[dec.coarse_vertex_origin[a]] || !vf[dec.coarse_vertex_origin[b]]) return;
+    // Both ends on a curve in the decimation too: a vertex that the decimation moved freely (its
+    // origin on a soft crease it dropped) is not on the dense curve.
+    if (vf.empty() || !vf[dec.coarse_vertex_origin[a]] || !vf[dec.coarse_vertex_origin[b]] ||
+        !dec.coarse_vertex_feature[a] || !dec.coarse_vertex_feature[b])
+      return;
     const int f = faces[0];
     Eigen::Vector3d xi = Eigen::Vector3d::Zero();
     for (int j = 0; j < 3; ++j)
@@ -216,7 +220,8 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   if (opt.order < 2 || opt.order > 6) throw UsageError("lift order " + std::to_string(opt.order) + " is outside 2..6");
   const CoarseMap& map = dec.map;
   if (static_cast<int>(map.vertex_coarse_face.size()) != fine.num_vertices() ||
-      static_cast<int>(map.cf_start.size()) != dec.coarse.num_faces() + 1)
+      static_cast<int>(map.cf_start.size()) != dec.coarse.num_faces() + 1 ||
+      static_cast<int>(dec.coarse_vertex_feature.size()) != dec.coarse.num_vertices())
     throw UsageError("lift_coarse needs the decimation's map of this input (build_map = true)");
   if (dec.coarse.num_faces() == 0) throw InputError("", "the coarse mesh has no triangles");
   const auto t_all = Clock::now();
@@ -256,7 +261,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   std::vector<int> clamps(ncv, 0), steps(ncv, 0);
   parallel(ncv, [&](int v) {
     const int o = dec.coarse_vertex_origin[v];
-    if (S.features.vertex_corner[o]) {
+    if (S.features.vertex_corner[o] && dec.coarse_vertex_feature[v]) {  // else moved off it
       coarse.V.row(v) = fine.V.row(o);
       return;
     }
