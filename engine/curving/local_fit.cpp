@@ -401,7 +401,8 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
   else n0 = Eigen::Vector3d::UnitZ();
 
   const int m = fit_coefficients(p);
-  const int need = static_cast<int>(std::ceil(opt.points_per_coef * m));
+  const bool one_sided = W.vertex_wedge_start[v + 1] - W.vertex_wedge_start[v] > 1;
+  const int need = static_cast<int>(std::ceil((one_sided ? opt.points_per_coef_one_sided : opt.points_per_coef) * m));
   StencilOptions so;
   so.min_rings = 1;
   so.max_rings = opt.max_rings;
@@ -469,7 +470,6 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
     LocalFit trial = solve_height_fit(o, n0, h, P, wt, p, opt);
     // One-sided wedges (a vertex on a feature) have an area-weighted normal biased at O(h):
     // those refit in the frame of the first fit's normal.
-    const bool one_sided = W.vertex_wedge_start[v + 1] - W.vertex_wedge_start[v] > 1;
     // Only well-posed first fits (degree kept, pivots not tiny) give a trustworthy gradient.
     const bool well_posed = trial.degree == p && trial.pivot_ratio >= opt.support_condition;
     if ((opt.refine_normal || (one_sided && opt.refine_one_sided && well_posed)) && trial.degree >= 1) {
