@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <vector>
@@ -232,4 +233,44 @@ TEST_CASE("real inputs (scan, CAD STL): valid, watertight, bounded deviation, fi
                   r.deviation.max_relative, r.deviation.rms_relative, r.total_seconds);
     }
   }
+}
+
+TEST_CASE("shared meshes on exact surfaces: P4 at least 100x closer than the linear input") {
+  // sphere_surf_gmsh.stl: the unit sphere (6-digit ASCII STL: vertices off it by <= 3.5e-6);
+  // torus.obj: axis y, R = 1, r = 0.25 (vertices on it to 8e-7).
+  {
+    const Mesh m = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/sphere_surf_gmsh.stl").mesh;
+    Case c = run("sphere_surf_gmsh.stl", m, [](const Eigen::Vector3d& x) { return sphere_distance(x); });
+    CHECK(c.linear / c.p4 >= 100);
+    check_result(m, c.r4);
+  }
+  {
+    const Mesh m = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/torus.obj").mesh;
+    const Dist dist = [](const Eigen::Vector3d& x) {
+      return std::hypot(std::hypot(x.x(), x.z()) - 1.0, x.y()) - 0.25;
+    };
+    Case c = run("torus.obj", m, dist);
+    CHECK(c.linear / c.p4 >= 100);
+    check_result(m, c.r4);
+  }
+}
+
+TEST_CASE("every shared mesh curves to a valid, watertight P4 mesh") {
+  int count = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(std::string(HOCURVE_SHARED_DIR) + "/meshes")) {
+    const std::string name = entry.path().filename().string();
+    if (!entry.is_regular_file() || name == "MANIFEST.tsv" || name == "README.md") continue;
+    const Mesh m = read_mesh_file(entry.path().string()).mesh;
+    CurveOptions o;
+    o.order = 4;
+    const CurveResult r = curve_mesh(m, o);
+    INFO(name);
+    check_result(m, r);
+    CHECK(r.deviation.max_relative < 0.1);
+    std::printf("%-26s P4  #tri %6d  invalid before %4lld  repaired %4lld  minJ %.2e  deviation max %.2e (x diag)\n",
+                name.c_str(), r.faces, r.validity.invalid_before, r.validity.repaired, r.validity.min_scaled_jacobian,
+                r.deviation.max_relative);
+    ++count;
+  }
+  CHECK(count >= 17);
 }
