@@ -3,14 +3,22 @@
 // Usage: bench_lift [all | analytic | real | speed] [order]
 //        bench_lift FILE RATIO [order]   (one mesh)
 // BENCH_LIFT_PROJECTION=ray|closest picks LiftOptions::projection (default: the
-// library default), to compare the node projections on one binary. See bench/LIFT.md.
+// library default), to compare the node projections on one binary; BENCH_LIFT_RESNAP=0|1 and
+// BENCH_LIFT_OFFENDING=0|1 set LiftOptions::resnap_invalid and fallback_offending_only.
+// BENCH_LIFT_DEBUG=1 adds the unrepaired figures and why snapped elements are invalid. See
+// bench/LIFT.md.
 #include "engine/coarse/decimate.hpp"
 #include "engine/coarse/lift.hpp"
 #include "engine/coarse/surface_distance.hpp"
 #include "engine/curving/test_meshes.hpp"
+#include "engine/highorder/validity.hpp"
 #include "engine/io/read_mesh.hpp"
 
+#include <Eigen/Geometry>
+
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
@@ -47,6 +55,8 @@ LiftOptions lift_options(const DecimateOptions& dopt, int p) {
   lopt.order = p;
   lopt.features = feature_options(dopt);
   lopt.projection = projection_from_env(lopt.projection);
+  if (const char* e = std::getenv("BENCH_LIFT_RESNAP")) lopt.resnap_invalid = std::string(e) != "0";
+  if (const char* e = std::getenv("BENCH_LIFT_OFFENDING")) lopt.fallback_offending_only = std::string(e) != "0";
   return lopt;
 }
 
@@ -94,6 +104,76 @@ void analytic(const char* name, const Mesh& fine, int target, int p,
               L.ray_failed, L.map_clamped, double(L.walk_steps) / std::max<long long>(1, L.nodes));
 }
 
+/// Why snapped elements are invalid (BENCH_LIFT_DEBUG): compares the unrepaired snapped mesh
+/// `snap` with the unrepaired fit-blend mesh `fit` (same corners). Per element invalid when
+/// snapped, which node groups must go back to the fit blend to make it valid (face nodes only,
+/// one edge's nodes, all edge nodes, all), where the lowest Bernstein coefficient of J sits
+/// (corner, edge, interior), and the snap move of the nodes split into the component along the
+/// straight triangle's normal and the tangential rest, in straight mean edge lengths.
+void diagnose_invalid(const HighOrderMesh& snap, const HighOrderMesh& fit) {
+  const int p = snap.order, nf = snap.num_faces(), npe = snap.nodes_per_edge(), npf = snap.nodes_per_face();
+  const JacobianBasis basis(p);
+  ValidityOptions vopt;
+  auto valid = [&](const Eigen::MatrixXd& X) { return check_element(basis, X, vopt).valid; };
+  long long bad = 0, fit_bad = 0, by_face = 0, by_one_edge = 0, by_edges = 0, by_all = 0, at_corner = 0, at_edge = 0;
+  // [valid 0 / invalid 1][edge 0 / face 1]: sums of normal and tangential move / h, and counts
+  double sn[2][2] = {}, st[2][2] = {}, mx_t[2][2] = {}, cnt[2][2] = {};
+  double min_angle[2] = {}, nface[2] = {};
+  for (int f = 0; f < nf; ++f) {
+    const Eigen::MatrixXd S = element_nodes(snap, f), F = element_nodes(fit, f);
+    const bool ok = valid(S);
+    fit_bad += !valid(F);
+    const int b = ok ? 0 : 1;
+    const Eigen::Vector3d a = S.row(0), c1 = S.row(1), c2 = S.row(2);
+    const Eigen::Vector3d n = (c1 - a).cross(c2 - a).normalized();
+    const double h = ((c1 - a).norm() + (c2 - c1).norm() + (a - c2).norm()) / 3;
+    double amin = M_PI;
+    for (int j = 0; j < 3; ++j) {
+      const Eigen::Vector3d x = S.row(j), y = S.row((j + 1) % 3), z = S.row((j + 2) % 3);
+      amin = std::min(amin, std::acos(std::clamp((y - x).normalized().dot((z - x).normalized()), -1.0, 1.0)));
+    }
+    min_angle[b] += amin * 180 / M_PI, nface[b] += 1;
+    for (int i = 3; i < S.rows(); ++i) {
+      const int g = i < 3 + 3 * npe ? 0 : 1;
+      const Eigen::Vector3d d = (S.row(i) - F.row(i)).transpose();
+      const double dn = std::abs(d.dot(n)) / h, dt = (d - d.dot(n) * n).norm() / h;
+      sn[b][g] += dn, st[b][g] += dt, mx_t[b][g] = std::max(mx_t[b][g], dt), cnt[b][g] += 1;
+    }
+    if (ok) continue;
+    ++bad;
+    const Eigen::VectorXd J = jacobian_bezier(basis, S);
+    Eigen::Index m = 0;
+    J.minCoeff(&m);
+    const int d = basis.d;
+    int a1 = 0, a2 = 0;
+    for (int k = 0, q = 0; k <= d; ++k)
+      for (int l = 0; l + k <= d; ++l, ++q)
+        if (bernstein_index(d, l, k) == m) a1 = l, a2 = k;
+    const int a0 = d - a1 - a2;
+    if (a0 == d || a1 == d || a2 == d) ++at_corner;
+    else if (a0 == 0 || a1 == 0 || a2 == 0) ++at_edge;
+    auto with = [&](int lo, int hi) {
+      Eigen::MatrixXd X = S;
+      X.middleRows(lo, hi - lo) = F.middleRows(lo, hi - lo);
+      return valid(X);
+    };
+    if (npf > 0 && with(3 + 3 * npe, 3 + 3 * npe + npf)) ++by_face;
+    else if (with(3, 3 + npe) || with(3 + npe, 3 + 2 * npe) || with(3 + 2 * npe, 3 + 3 * npe)) ++by_one_edge;
+    else if (with(3, 3 + 3 * npe)) ++by_edges;
+    else if (with(3, 3 + 3 * npe + npf)) ++by_all;
+  }
+  std::printf("    invalid snapped %lld / %d (fit blend %lld); made valid by the fit blend of: face nodes %lld, one edge %lld, "
+              "all edges %lld, all nodes %lld, none %lld; min J coefficient at a corner %lld, on an edge %lld, inside %lld\n",
+              bad, nf, fit_bad, by_face, by_one_edge, by_edges, by_all, bad - by_face - by_one_edge - by_edges - by_all,
+              at_corner, at_edge, bad - at_corner - at_edge);
+  for (int b = 0; b < 2; ++b)
+    std::printf("    %s elements: min angle %.1f deg; snap move / h: edge nodes normal %.3f tangential %.3f (max %.3f), "
+                "face nodes normal %.3f tangential %.3f (max %.3f)\n",
+                b ? "invalid" : "valid  ", min_angle[b] / std::max(1.0, nface[b]), sn[b][0] / std::max(1.0, cnt[b][0]),
+                st[b][0] / std::max(1.0, cnt[b][0]), mx_t[b][0], sn[b][1] / std::max(1.0, cnt[b][1]),
+                st[b][1] / std::max(1.0, cnt[b][1]), mx_t[b][1]);
+}
+
 void real(const std::string& file, double ratio, int p) {
   const Mesh fine = read_mesh_file(file).mesh;
   DecimateOptions dopt;
@@ -106,11 +186,11 @@ void real(const std::string& file, double ratio, int p) {
   const HausdorffResult Hc = hausdorff_distance(fine, tessellate(L.mesh, 8), 4);
   const HausdorffResult Hs = hausdorff_distance(fine, D.coarse, 4);
   std::printf("%-22s %7d -> %5d P%d | Hausdorff/diag: coarse P%d %.3f%% (dense->coarse %.3f%%, coarse->dense %.3f%%), "
-              "straight %.3f%% | invalid %lld (fit fallback %lld, repaired %lld) | features dense %lld, coarse %lld | "
+              "straight %.3f%% | invalid %lld (resnapped %lld, fit fallback %lld, repaired %lld) | features dense %lld, coarse %lld | "
               "decimate %.2f s, map %.2f s, lift %.2f s\n",
               file.substr(file.find_last_of('/') + 1).c_str(), fine.num_faces(), D.coarse.num_faces(), p, p,
               100 * Hc.hausdorff() / diag, 100 * Hc.a_to_b / diag, 100 * Hc.b_to_a / diag, 100 * Hs.hausdorff() / diag,
-              L.validity.invalid_after, L.fit_fallback_elements, L.validity.repaired, L.dense_feature_edges, L.coarse_feature_edges,
+              L.validity.invalid_after, L.resnapped_elements, L.fit_fallback_elements, L.validity.repaired, L.dense_feature_edges, L.coarse_feature_edges,
               r.decimate, r.map, r.lift_seconds);
   if (!D.reached_target) std::printf("    %s\n", D.message.c_str());
   if (std::getenv("BENCH_LIFT_DEBUG")) {
@@ -123,6 +203,9 @@ void real(const std::string& file, double ratio, int p) {
     std::printf("    unrepaired: %lld invalid, Hausdorff %.3f%% (%.3f / %.3f); fits only unrepaired: %lld invalid, %.3f%%\n",
                 U.validity.invalid_after, 100 * Hu.hausdorff() / diag, 100 * Hu.a_to_b / diag, 100 * Hu.b_to_a / diag,
                 Uf.validity.invalid_after, 100 * Hf.hausdorff() / diag);
+    std::printf("    %lld nodes, %lld curve nodes, %lld rays fell back to the closest point\n", U.nodes, U.curve_nodes,
+                U.ray_failed);
+    diagnose_invalid(U.mesh, Uf.mesh);
   }
 }
 

@@ -158,6 +158,48 @@ TEST_CASE("armadillo 2%: corners the decimation moved off dropped creases stay o
   CHECK(shortest > 1e-6 * L.bbox_diagonal);
 }
 
+/// Rows of a and b (same size) that differ.
+long long rows_moved(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return ((a - b).rowwise().norm().array() > 0).count();
+}
+
+TEST_CASE("armadillo 4%: fewer folded snapped elements, and only their offending nodes move off the dense surface") {
+  // Scan noise folds some snapped elements. Re-snapping them along the straight normals (no
+  // in-plane move) must unfold some; with fallback_offending_only, the ones that one edge's or
+  // the face's nodes fold keep their other nodes snapped, and every element ends valid and
+  // conforming.
+  const Mesh fine = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/armadillo.obj").mesh;
+  DecimateOptions dopt;
+  dopt.target_ratio = 0.04;
+  const DecimateResult D = decimate(fine, dopt);
+  LiftOptions lopt;
+  lopt.order = 4;
+  lopt.features = feature_options(dopt);
+  lopt.repair = false;
+  const LiftResult snapped = lift_coarse(fine, D, lopt);
+  REQUIRE(snapped.validity.invalid_before > 0);  // else this test sees nothing
+  lopt.resnap_invalid = false;
+  const LiftResult first_snap = lift_coarse(fine, D, lopt);
+  lopt.resnap_invalid = true;
+  MESSAGE(first_snap.validity.invalid_before << " invalid after the first snap, " << snapped.validity.invalid_before
+                                             << " after re-snapping " << snapped.resnapped_elements);
+  CHECK(snapped.resnapped_elements == first_snap.validity.invalid_before);
+  CHECK(snapped.validity.invalid_before < first_snap.validity.invalid_before);
+  lopt.repair = true;
+  lopt.fallback_offending_only = true;
+  const LiftResult only = lift_coarse(fine, D, lopt);
+  lopt.fallback_offending_only = false;
+  const LiftResult all = lift_coarse(fine, D, lopt);
+  const Eigen::MatrixXd x = all_nodes(snapped.mesh);
+  const long long moved_only = rows_moved(all_nodes(only.mesh), x), moved_all = rows_moved(all_nodes(all.mesh), x);
+  MESSAGE(snapped.validity.invalid_before << " invalid snapped; nodes moved off the snap: offending only " << moved_only
+                                          << ", every node of the element " << moved_all);
+  CHECK(only.validity.invalid_after == 0);
+  CHECK(conformity_gap(only.mesh) < 1e-12);
+  CHECK(moved_only > 0);
+  CHECK(moved_only < moved_all);
+}
+
 TEST_CASE("deterministic: one thread and all threads give the same nodes") {
   const Mesh fine = torus_grid(60, 30, 1.0, 0.4);
   DecimateOptions dopt;
