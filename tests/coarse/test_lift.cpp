@@ -57,6 +57,14 @@ double conformity_gap(const HighOrderMesh& hm) {
   return gap;
 }
 
+/// Lifting options of order p that keep the features the decimation kept.
+LiftOptions lift_options(const DecimateOptions& dopt, int p) {
+  LiftOptions lopt;
+  lopt.order = p;
+  lopt.features = feature_options(dopt);
+  return lopt;
+}
+
 struct Case {
   double dense = 0, straight = 0, curved = 0;
   LiftResult lift;
@@ -67,9 +75,7 @@ Case run(const Mesh& fine, int target, int p, const Dist& dist) {
   dopt.target_faces = target;
   const DecimateResult D = decimate(fine, dopt);
   REQUIRE(D.reached_target);
-  LiftOptions lopt;
-  lopt.order = p;
-  lopt.features = feature_options(dopt);
+  LiftOptions lopt = lift_options(dopt, p);
   Case c;
   c.lift = lift_coarse(fine, D, lopt);
   c.dense = max_abs(sample_faces(fine, 8), dist);
@@ -118,9 +124,7 @@ TEST_CASE("cube: feature curves and corners are kept, every node stays on the cu
   DecimateOptions dopt;
   dopt.target_faces = 120;
   const DecimateResult D = decimate(fine, dopt);
-  LiftOptions lopt;
-  lopt.order = 3;
-  lopt.features = feature_options(dopt);
+  LiftOptions lopt = lift_options(dopt, 3);
   const LiftResult L = lift_coarse(fine, D, lopt);
   CHECK(L.validity.invalid_after == 0);
   CHECK(L.coarse_feature_edges >= 12);  // at least one coarse edge per cube edge
@@ -145,9 +149,7 @@ TEST_CASE("armadillo 2%: corners the decimation moved off dropped creases stay o
   dopt.target_ratio = 0.02;
   const DecimateResult D = decimate(fine, dopt);
   REQUIRE(D.coarse_vertex_feature.size() == static_cast<size_t>(D.coarse.num_vertices()));
-  LiftOptions lopt;
-  lopt.order = 4;
-  lopt.features = feature_options(dopt);
+  LiftOptions lopt = lift_options(dopt, 4);
   const LiftResult L = lift_coarse(fine, D, lopt);
   CHECK(L.validity.degenerate_input == 0);
   CHECK(L.validity.invalid_after == 0);
@@ -172,9 +174,7 @@ TEST_CASE("armadillo 4%: fewer folded snapped elements, and only their offending
   DecimateOptions dopt;
   dopt.target_ratio = 0.04;
   const DecimateResult D = decimate(fine, dopt);
-  LiftOptions lopt;
-  lopt.order = 4;
-  lopt.features = feature_options(dopt);
+  LiftOptions lopt = lift_options(dopt, 4);
   lopt.repair = false;
   const LiftResult snapped = lift_coarse(fine, D, lopt);
   REQUIRE(snapped.validity.invalid_before > 0);  // else this test sees nothing
@@ -205,9 +205,7 @@ TEST_CASE("deterministic: one thread and all threads give the same nodes") {
   DecimateOptions dopt;
   dopt.target_faces = 300;
   const DecimateResult D = decimate(fine, dopt);
-  LiftOptions lopt;
-  lopt.order = 4;
-  lopt.features = feature_options(dopt);
+  LiftOptions lopt = lift_options(dopt, 4);
   Eigen::MatrixXd one;
   {
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, 1);
