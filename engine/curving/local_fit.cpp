@@ -1,5 +1,6 @@
 #include "engine/curving/local_fit.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <Eigen/QR>
 #include <tbb/blocked_range.h>
@@ -226,21 +227,131 @@ double LocalFit::height(double u, double v) const {
   return s * h;
 }
 
+Eigen::Vector3d LocalFit::coords(const Eigen::Vector3d& q) const {
+  const Eigen::Vector3d d = q - o;
+  const double x = d.dot(t1), y = d.dot(t2), w = d.dot(n);
+  if (k2 == 0) return {x, y, w};
+  // Rotate about the axis (along t2 through o + rho1 n) into o's meridian plane: arc length u,
+  // height wp there; |q - axis| - |rho1| written without cancellation.
+  double u = x, wp = w;
+  if (k1 != 0) {
+    const double rho1 = 1.0 / k1, sg = rho1 > 0 ? 1.0 : -1.0;
+    const double s = std::sqrt(x * x + (w - rho1) * (w - rho1));  // not hypot: slow, and no overflow here
+    u = std::abs(rho1) * std::atan2(x, std::abs(rho1) - sg * w);
+    wp = -sg * (x * x + w * w - 2 * w * rho1) / (s + std::abs(rho1));
+  }
+  // In the meridian plane (y, wp): the arc length along the tube circle (centre o + rho2 n)
+  // to the point's ray from the centre (v), and the signed distance to that circle (height).
+  const double rho2 = 1.0 / k2, sg2 = rho2 > 0 ? 1.0 : -1.0;
+  const double r = std::sqrt(y * y + (wp - rho2) * (wp - rho2));
+  const double v = std::abs(rho2) * std::atan2(y, std::abs(rho2) - sg2 * wp);
+  const double z = -sg2 * (y * y + wp * wp - 2 * rho2 * wp) / (r + std::abs(rho2));
+  return {u, v, z};
+}
+
+Eigen::Vector3d LocalFit::point(double u, double v, double z) const {
+  if (k2 == 0) return o + u * t1 + v * t2 + z * n;
+  // Meridian plane: at angle v / |rho2| on the tube circle, radius |rho2| - sg2 z from its centre.
+  const double rho2 = 1.0 / k2, a2 = std::abs(rho2), sg2 = rho2 > 0 ? 1.0 : -1.0;
+  const double psi = v / a2, half2 = std::sin(0.5 * psi);
+  const double y = (a2 - sg2 * z) * std::sin(psi);
+  const double wp = 2 * rho2 * half2 * half2 + z * std::cos(psi);
+  if (k1 == 0) return o + u * t1 + y * t2 + wp * n;
+  // Rotate by u / |rho1| about the axis: distance to the axis sg1 (rho1 - wp).
+  const double rho1 = 1.0 / k1, sg1 = rho1 > 0 ? 1.0 : -1.0;
+  const double phi = u / std::abs(rho1), s = sg1 * (rho1 - wp);
+  const double half = std::sin(0.5 * phi);
+  return o + s * std::sin(phi) * t1 + y * t2 + (2 * rho1 * half * half + wp * std::cos(phi)) * n;
+}
+
 Eigen::Vector3d LocalFit::project(const Eigen::Vector3d& x) const {
   if (identity) return x;
-  const Eigen::Vector3d d = x - o;
-  const double u = d.dot(t1), v = d.dot(t2);
-  return o + u * t1 + v * t2 + height(u, v) * n;
+  const Eigen::Vector3d c = coords(x);
+  return point(c[0], c[1], height(c[0], c[1]));
+}
+
+FitReference reference_surface(const Eigen::Vector3d& o, const Eigen::Vector3d& n, const Eigen::MatrixXd& P,
+                               const Eigen::VectorXd& w, Eigen::Vector3d* normal) {
+  // Weighted least squares for w = a u + b v + (A (u^2 + w^2 / 2) + 2 B u v + C (v^2 + w^2 / 2)) / 2,
+  // (u, v, w) = q - o in the frame: the tilt terms absorb the frame normal's error, which would
+  // otherwise bias the curvatures by ~ tilt / h, and a sphere (A = C = kappa, B = 0) fits exactly.
+  FitReference ref;
+  Eigen::Vector3d t1, t2;
+  tangent_frame(n, t1, t2);
+  ref.t1 = t1;
+  ref.t2 = t2;
+  if (normal) *normal = n;
+  using Mat5 = Eigen::Matrix<double, 5, 5>;
+  using Vec5 = Eigen::Matrix<double, 5, 1>;
+  Mat5 M = Mat5::Zero();
+  Vec5 r = Vec5::Zero();
+  double rmax = 0;
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    const Eigen::Vector3d d = P.row(i).transpose() - o;
+    const double u = d.dot(t1), v = d.dot(t2), w2 = 0.5 * d.dot(n) * d.dot(n);
+    Vec5 row;
+    row << u, v, 0.5 * (u * u + w2), u * v, 0.5 * (v * v + w2);
+    M += w[i] * w[i] * row * row.transpose();
+    r += w[i] * w[i] * d.dot(n) * row;
+    rmax = std::max(rmax, d.norm());
+  }
+  if (!(rmax > 0)) return ref;
+  // Jacobi-scaled normal equations; points that barely determine the quadratic (all on a few
+  // lines, as on CAD strips) give no reference: a wrong one would bend every fit.
+  Vec5 dsc;
+  for (int j = 0; j < 5; ++j) dsc[j] = M(j, j) > 0 ? 1.0 / std::sqrt(M(j, j)) : 0.0;
+  if (!(dsc.minCoeff() > 0)) return ref;
+  const Mat5 Ms = dsc.asDiagonal() * M * dsc.asDiagonal();
+  const Eigen::LDLT<Mat5> ldlt(Ms);
+  const Vec5 piv = ldlt.vectorD();
+  if (ldlt.info() != Eigen::Success || !(piv.minCoeff() > 1e-6 * piv.maxCoeff())) return ref;
+  const Vec5 s = dsc.asDiagonal() * ldlt.solve(dsc.asDiagonal() * r);
+  if (!s.allFinite()) return ref;
+  if (normal) {
+    const Eigen::Vector3d n1 = n - s[0] * t1 - s[1] * t2;
+    if (n1.norm() > 0 && n1.normalized().dot(n) > 0.5) *normal = n1.normalized();
+  }
+  // Principal curvatures (eigenvalues of [[A, B], [B, C]]) and directions.
+  const double mean = 0.5 * (s[2] + s[4]);
+  const double half_gap = std::hypot(0.5 * (s[2] - s[4]), s[3]);
+  const double lo = mean - half_gap, hi = mean + half_gap;  // lo <= hi
+  // Direction of hi: eigenvector (B, hi - A), or (hi - C, B) when that one is longer.
+  Eigen::Vector2d e_hi(s[3], hi - s[2]);
+  const Eigen::Vector2d alt(hi - s[4], s[3]);
+  if (alt.norm() > e_hi.norm()) e_hi = alt;
+  if (!(e_hi.norm() > 0)) e_hi = Eigen::Vector2d(1, 0);
+  e_hi.normalize();
+  // t2: the direction of larger |curvature| (the tube); t1 = t2 x n (around the axis).
+  Eigen::Vector3d d_hi = e_hi[0] * t1 + e_hi[1] * t2;
+  double k_big = hi, k_small = lo;
+  if (std::abs(lo) > std::abs(hi)) {
+    d_hi = n.cross(d_hi);  // lo's direction is perpendicular to hi's
+    std::swap(k_big, k_small);
+  }
+  const double cap = 0.9 / rmax;  // |w| <= 0.9 |rho|: every point on the near side
+  if (std::abs(k_big) * rmax < 1e-3) return ref;
+  if (std::abs(k_small) * rmax < 1e-3) k_small = 0;
+  // The frame of the tilt-corrected normal (curvatures change by O(tilt^2) only).
+  const Eigen::Vector3d nn = normal ? *normal : n;
+  ref.t2 = (d_hi - d_hi.dot(nn) * nn).normalized();
+  ref.t1 = ref.t2.cross(nn);
+  ref.k2 = std::clamp(k_big, -cap, cap);
+  ref.k1 = std::clamp(k_small, -cap, cap);
+  return ref;
 }
 
 LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, double h,
                           const Eigen::MatrixXd& P, const Eigen::VectorXd& w, int degree,
                           const FitOptions& opt, const Eigen::MatrixXd& Q,
-                          const Eigen::VectorXd& wq, bool basic) {
+                          const Eigen::VectorXd& wq, bool basic, const FitReference& ref) {
   LocalFit F;
   F.o = o;
   F.n = n;
-  tangent_frame(n, F.t1, F.t2);
+  if (ref.k2 != 0) {
+    F.t1 = ref.t1, F.t2 = ref.t2, F.k1 = ref.k1, F.k2 = ref.k2;
+  } else {
+    tangent_frame(n, F.t1, F.t2);
+  }
   F.h = h;
   F.requested_degree = degree;
   F.points = static_cast<int>(P.rows());
@@ -255,10 +366,10 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
     const bool is_vertex = i < P.rows();
     const Eigen::Vector3d q = is_vertex ? Eigen::Vector3d(P.row(i)) : Eigen::Vector3d(Q.row(i - P.rows()));
     const double wi = is_vertex ? w[i] : wq[i - P.rows()];
-    const Eigen::Vector3d d = q - o;
-    monomials(d.dot(F.t1) / h, d.dot(F.t2) / h, degree, mono);
+    const Eigen::Vector3d uvz = F.coords(q);
+    monomials(uvz[0] / h, uvz[1] / h, degree, mono);
     for (int j = 0; j < mmax; ++j) A(i, j) = wi * mono[j];
-    b[i] = wi * d.dot(n) / h;
+    b[i] = wi * uvz[2] / h;
   }
   // Column scaling once: a column's norm does not depend on how many leading columns a solve
   // keeps. Solves that would include a zero column (nonzero <= j) fail, as rank deficient.
@@ -318,10 +429,18 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
 
 namespace {
 
+/// The reference surface a fit was solved over (to refit over the same one).
+FitReference reference_of(const LocalFit& fit) {
+  FitReference r;
+  r.t1 = fit.t1, r.t2 = fit.t2, r.k1 = fit.k1, r.k2 = fit.k2;
+  return r;
+}
+
 /// The fit moves no point of its wedge's faces further than opt.max_offset x sqrt(2 area)
 /// of that face (about half an edge): beyond that it extrapolates, not approximates.
-/// project(x) - x is (height(u, v) - (x - o).n) n, so only heights are evaluated; u, v and the
-/// height of x above the tangent plane are affine over a face.
+/// The move of x is about |height(u, v) - z| at x's frame coordinates (u, v, z), taken affine
+/// over a face (exact over the tangent plane; off by O(k h^2) over a reference torus, well
+/// inside the limit).
 bool fit_is_sane(const Mesh& mesh, const Wedges& W, int w, const LocalFit& fit, const FitOptions& opt) {
   if (!fit.c.allFinite()) return false;
   if (fit.identity) return true;
@@ -329,10 +448,7 @@ bool fit_is_sane(const Mesh& mesh, const Wedges& W, int w, const LocalFit& fit, 
     const int f = W.wedge_faces[i];
     const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
     const double limit = opt.max_offset * std::sqrt((b - a).cross(c - a).norm());
-    const Eigen::Vector3d da = a - fit.o, eb = b - a, ec = c - a;
-    const Eigen::Vector3d ua(da.dot(fit.t1), da.dot(fit.t2), da.dot(fit.n));
-    const Eigen::Vector3d ub(eb.dot(fit.t1), eb.dot(fit.t2), eb.dot(fit.n));
-    const Eigen::Vector3d uc(ec.dot(fit.t1), ec.dot(fit.t2), ec.dot(fit.n));
+    const Eigen::Vector3d ua = fit.coords(a), ub = fit.coords(b) - ua, uc = fit.coords(c) - ua;
     for (int j = 0; j <= 4; ++j)
       for (int k = 0; j + k <= 4; ++k) {
         const Eigen::Vector3d x = ua + (j / 4.0) * ub + (k / 4.0) * uc;
@@ -467,14 +583,32 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
       for (int i = 0; i < k; ++i) wt[i] = std::pow(dist[i] * dist[i] / mean2 + 0.01, -0.5 * p);
     }
 
-    LocalFit trial = solve_height_fit(o, n0, h, P, wt, p, opt);
+    // The reference surface is set up in the tilt-corrected normal's frame: a tilted torus
+    // leaves an O(tilt) residual with every power of u in it.
+    Eigen::Vector3d nr = n0;
+    FitReference ref;
+    const bool use_reference = opt.reference_torus && !one_sided && k >= opt.reference_min_points;
+    if (use_reference) {
+      ref = reference_surface(o, n0, P, wt, &nr);
+      if (ref.k2 == 0) nr = n0;
+    }
+    LocalFit trial = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, ref);
+    if (ref.k2 != 0 && (trial.degree < p || trial.pivot_ratio < opt.support_condition)) {
+      // Short or ill-posed over the reference: what follows (degree fallbacks, support points)
+      // is built for tangent-plane fits.
+      nr = n0;
+      trial = solve_height_fit(o, n0, h, P, wt, p, opt);
+    }
     // One-sided wedges (a vertex on a feature) have an area-weighted normal biased at O(h):
     // those refit in the frame of the first fit's normal.
     // Only well-posed first fits (degree kept, pivots not tiny) give a trustworthy gradient.
     const bool well_posed = trial.degree == p && trial.pivot_ratio >= opt.support_condition;
     if ((opt.refine_normal || (one_sided && opt.refine_one_sided && well_posed)) && trial.degree >= 1) {
-      Eigen::Vector3d n1 = n0 - trial.c[0] * trial.t1 - trial.c[1] * trial.t2;
-      if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) trial = solve_height_fit(o, n1.normalized(), h, P, wt, p, opt);
+      Eigen::Vector3d n1 = trial.n - trial.c[0] * trial.t1 - trial.c[1] * trial.t2;
+      if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) {
+        n1.normalize();
+        trial = solve_height_fit(o, n1, h, P, wt, p, opt);
+      }
     }
     trial.rings = S.rings;
     if (attempt == 0 || trial.degree > fit.degree) fit = trial;
@@ -495,7 +629,7 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
   if (ill && !have_support) {
     // No samples to decide the open directions: take the minimum-norm fit (no curvature
     // along directions the vertices leave open).
-    LocalFit basic = solve_height_fit(o, fit.n, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), true);
+    LocalFit basic = solve_height_fit(o, fit.n, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), true, reference_of(fit));
     basic.rings = fit.rings;
     return basic;
   }
@@ -522,10 +656,11 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
       // determine it, zero coefficients for the columns they leave (nearly) open. Where the
       // vertex fit is well posed the lifted samples lie on it and the final fit equals it.
       if (opt.support_lift) {
-        const LocalFit basic = solve_height_fit(o, fit.n, h, P, wt, pd, opt, Eigen::MatrixXd(), Eigen::VectorXd(), true);
+        const LocalFit basic =
+            solve_height_fit(o, fit.n, h, P, wt, pd, opt, Eigen::MatrixXd(), Eigen::VectorXd(), true, reference_of(fit));
         for (int i = 0; i < ns; ++i) Q.row(i) = basic.project(Q.row(i).transpose()).transpose();
       }
-      LocalFit fs = solve_height_fit(o, fit.n, h, P, wt, pd, opt, Q, wq);
+      LocalFit fs = solve_height_fit(o, fit.n, h, P, wt, pd, opt, Q, wq, false, reference_of(fit));
       fs.requested_degree = p;
       if (fs.degree >= fit.degree) {
         fs.rings = S.rings;

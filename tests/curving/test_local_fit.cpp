@@ -155,3 +155,84 @@ TEST_CASE("Lobatto node distribution: nodes on the surface, corners kept") {
   CHECK(err < 1e-5);
   CHECK(r.validity.invalid_after == 0);
 }
+
+TEST_CASE("reference surfaces: coords and point are inverse; fits reproduce a torus exactly") {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-1, 1);
+  const double ks[][2] = {{0, 0}, {0, 2.0}, {0, -2.0}, {1.5, 1.5}, {-1.5, -1.5}, {0.7, 2.5}, {-1.1, 2.5}, {1.1, -2.5}};
+  for (const auto& k : ks) {
+    LocalFit F;
+    F.o = Eigen::Vector3d(0.2, -0.1, 0.3);
+    F.n = Eigen::Vector3d(0.3, -0.5, 0.8).normalized();
+    tangent_frame(F.n, F.t1, F.t2);
+    F.k1 = k[0], F.k2 = k[1];
+    double err = 0;
+    for (int i = 0; i < 50; ++i) {
+      const Eigen::Vector3d q = F.o + 0.2 * Eigen::Vector3d(U(rng), U(rng), U(rng));  // |q - o| < 0.9 / |k|
+      const Eigen::Vector3d c = F.coords(q);
+      err = std::max(err, (F.point(c[0], c[1], c[2]) - q).norm());
+    }
+    INFO("k1 = " << k[0] << ", k2 = " << k[1]);
+    CHECK(err < 1e-14);
+    // Normal curvatures at o: points of height 0 at (u, 0) and (0, v) lie on circles of
+    // curvature k1, k2 tangent to the plane (sagitta ~ k s^2 / 2).
+    const double s = 1e-3;
+    const double w1 = (F.point(s, 0, 0) - F.o).dot(F.n), w2 = (F.point(0, s, 0) - F.o).dot(F.n);
+    CHECK(std::abs(2 * w1 / (s * s) - k[0]) < 1e-4);
+    CHECK(std::abs(2 * w2 / (s * s) - k[1]) < 1e-4);
+  }
+  // Points of the torus R = 1, r = 0.4 (axis z) around o = (1.4, 0, 0): the reference surface
+  // estimated from them is that torus, so a fit reproduces it to round-off.
+  const Eigen::Vector3d o(1.4, 0, 0), n(1, 0, 0);
+  const int k = 40;
+  Eigen::MatrixXd P(k, 3);
+  Eigen::VectorXd w = Eigen::VectorXd::Ones(k);
+  for (int i = 0; i < k; ++i) {
+    const double phi = 0.25 * U(rng), th = 0.25 * U(rng);
+    P.row(i) << (1 + 0.4 * std::cos(th)) * std::cos(phi), (1 + 0.4 * std::cos(th)) * std::sin(phi), 0.4 * std::sin(th);
+  }
+  const FitReference ref = reference_surface(o, n, P, w);
+  CHECK(std::abs(ref.k2 + 2.5) < 0.1);       // tube: radius 0.4, centre behind o (along -n)
+  CHECK(std::abs(ref.k1 + 1 / 1.4) < 0.1);   // around the axis: radius 1.4
+  // Fit error at torus points inside the stencil: plane vs estimated vs exact reference.
+  auto torus = [](double phi, double th) {
+    return Eigen::Vector3d((1 + 0.4 * std::cos(th)) * std::cos(phi), (1 + 0.4 * std::cos(th)) * std::sin(phi), 0.4 * std::sin(th));
+  };
+  FitReference exact = ref;
+  exact.k1 = -1 / 1.4, exact.k2 = -2.5;
+  exact.t2 = Eigen::Vector3d(0, 0, 1) * (ref.t2.z() > 0 ? 1 : -1);
+  exact.t1 = exact.t2.cross(n);
+  double e[3] = {0, 0, 0};
+  const FitReference refs[3] = {FitReference(), ref, exact};
+  for (int r = 0; r < 3; ++r) {
+    const LocalFit F = solve_height_fit(o, n, 0.1, P, w, 4, FitOptions{}, Eigen::MatrixXd(), Eigen::VectorXd(), false, refs[r]);
+    for (int i = 0; i < 200; ++i) {
+      const Eigen::Vector3d q = torus(0.12 * U(rng), 0.12 * U(rng));
+      e[r] = std::max(e[r], (F.project(q) - q).norm());
+    }
+  }
+  MESSAGE("torus fit error: plane " << e[0] << " estimated torus " << e[1] << " exact torus " << e[2]);
+  CHECK(e[2] < 1e-12);
+  CHECK(e[1] < e[0] / 10);
+  // The same on the inner side (a saddle), where the torus's axis is again the reference's.
+  // (Elsewhere the osculating torus is not the torus itself: at the top the curvature around
+  // the axis is 0, so the reference is a cylinder.)
+  for (double th0 : {M_PI}) {
+    const Eigen::Vector3d oo = torus(0, th0);
+    const Eigen::Vector3d nn(std::cos(th0), 0, std::sin(th0));
+    Eigen::MatrixXd Pp(k, 3);
+    for (int i = 0; i < k; ++i) Pp.row(i) = torus(0.25 * U(rng), th0 + 0.25 * U(rng)).transpose();
+    const FitReference rr = reference_surface(oo, nn, Pp, w);
+    double ee[2] = {0, 0};
+    const FitReference refs2[2] = {FitReference(), rr};
+    for (int r = 0; r < 2; ++r) {
+      const LocalFit F = solve_height_fit(oo, nn, 0.1, Pp, w, 4, FitOptions{}, Eigen::MatrixXd(), Eigen::VectorXd(), false, refs2[r]);
+      for (int i = 0; i < 200; ++i) {
+        const Eigen::Vector3d q = torus(0.12 * U(rng), th0 + 0.12 * U(rng));
+        ee[r] = std::max(ee[r], (F.project(q) - q).norm());
+      }
+    }
+    MESSAGE("inner side: k1 " << rr.k1 << " k2 " << rr.k2 << " plane " << ee[0] << " torus " << ee[1]);
+    CHECK(ee[1] < ee[0] / 10);
+  }
+}
