@@ -148,18 +148,6 @@ CoarseFit fit_coarse_wedge(const Mesh& fine, const Mesh& coarse, const Topology&
   return out;
 }
 
-/// Barycentric coordinates, in the first face of coarse edge e, of the point at parameter t
-/// from E(e,0) to E(e,1) (the one face per edge that places its nodes: conforming).
-Eigen::Vector3d edge_node_bary(const Mesh& coarse, const Topology& Tc, int e, double t) {
-  const int f = Tc.edge_faces[e][0];
-  Eigen::Vector3d xi = Eigen::Vector3d::Zero();
-  for (int j = 0; j < 3; ++j) {
-    if (coarse.F(f, j) == Tc.E(e, 0)) xi[j] = 1 - t;
-    if (coarse.F(f, j) == Tc.E(e, 1)) xi[j] = t;
-  }
-  return xi;
-}
-
 /// Which node group of element f (nodes in Gmsh order) alone makes it valid when it goes back to
 /// its fit-blend positions `fit`: 0..2 = the nodes of edge j, 3 = the face nodes, -1 = none of
 /// them alone (then every node goes back).
@@ -398,7 +386,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   parallel(ne, [&](int e) {
     const int f = Tc.edge_faces[e][0];
     for (int k = 1; k < p; ++k) {
-      const Eigen::Vector3d xi = edge_node_bary(coarse, Tc, e, line[k]);
+      const Eigen::Vector3d xi = edge_barycentric(coarse, Tc, e, Tc.edge_faces[e][0], line[k]);
       Eigen::Vector3d x0;
       const Eigen::Index r = static_cast<Eigen::Index>(e) * npe + k - 1;
       hm.edge_nodes.row(r) = place(f, xi, cfeat[e], edge_stats[e], x0).transpose();
@@ -470,7 +458,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
       for (int g : Tc.edge_faces[e]) n += fn.row(g).transpose();
       for (int k = 1; k < p; ++k) {
         const Eigen::Index r = static_cast<Eigen::Index>(e) * npe + k - 1;
-        resnap(hm.edge_nodes.row(r), Tc.edge_faces[e][0], edge_node_bary(coarse, Tc, e, line[k]),
+        resnap(hm.edge_nodes.row(r), Tc.edge_faces[e][0], edge_barycentric(coarse, Tc, e, Tc.edge_faces[e][0], line[k]),
                edge_fit.row(r).transpose(), n);
       }
     });

@@ -17,6 +17,15 @@ Eigen::Vector3d blend_point(const Mesh& mesh, const Wedges& W, const std::vector
   return out;
 }
 
+Eigen::Vector3d edge_barycentric(const Mesh& mesh, const Topology& T, int e, int f, double t) {
+  Eigen::Vector3d xi = Eigen::Vector3d::Zero();
+  for (int j = 0; j < 3; ++j) {
+    if (mesh.F(f, j) == T.E(e, 0)) xi[j] = 1 - t;
+    if (mesh.F(f, j) == T.E(e, 1)) xi[j] = t;
+  }
+  return xi;
+}
+
 PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W,
                             const std::vector<LocalFit>& fits, const Features* feat,
                             const CurveFitResult* curves, int p, NodeDistribution d) {
@@ -38,12 +47,6 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
     for (int e = r.begin(); e < r.end(); ++e) {
       const int a = T.E(e, 0);
       const int f = T.edge_faces[e].empty() ? -1 : T.edge_faces[e][0];
-      int ja = -1, jb = -1;
-      if (f >= 0)
-        for (int j = 0; j < 3; ++j) {
-          if (mesh.F(f, j) == a) ja = j;
-          if (mesh.F(f, j) == T.E(e, 1)) jb = j;
-        }
       for (int k = 1; k < p; ++k) {
         const double t = line[k];
         Eigen::Vector3d q;
@@ -51,10 +54,7 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
           q = curves ? curve_edge_point(mesh, T, *curves, e, t)
                      : Eigen::Vector3d((1 - t) * mesh.V.row(a) + t * mesh.V.row(T.E(e, 1)));
         } else {
-          Eigen::Vector3d xi = Eigen::Vector3d::Zero();
-          xi[ja] = 1 - t;
-          xi[jb] = t;
-          q = blend_point(mesh, W, fits, f, xi);
+          q = blend_point(mesh, W, fits, f, edge_barycentric(mesh, T, e, f, t));
         }
         hm.edge_nodes.row(static_cast<Eigen::Index>(e) * npe + k - 1) = q.transpose();
       }

@@ -19,6 +19,10 @@ namespace hocurve {
 Eigen::Vector3d blend_point(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits,
                             int f, const Eigen::Vector3d& xi);
 
+/// Barycentric coordinates, in face f (one of edge e's faces), of the point at parameter t from
+/// E(e,0) to E(e,1). Placing an edge's nodes through one face per edge keeps them conforming.
+Eigen::Vector3d edge_barycentric(const Mesh& mesh, const Topology& T, int e, int f, double t);
+
 struct PlacementResult {
   HighOrderMesh mesh;
   long long curve_edges = 0;   ///< edges placed along feature-curve fits
