@@ -23,19 +23,31 @@ std::vector<int> feature_edges_at(const Topology& T, const Features& feat, int v
   return out;
 }
 
-/// v continues the curve (a non-corner vertex with exactly two feature edges).
-bool through(const Topology& T, const Features& feat, int v) {
-  return !feat.vertex_corner[v] && feature_edges_at(T, feat, v).size() == 2;
+double edge_length(const Mesh& mesh, const Topology& T, int e) {
+  return (mesh.V.row(T.E(e, 0)) - mesh.V.row(T.E(e, 1))).norm();
 }
 
-/// Walks from v across e and onwards through non-corner vertices, up to count vertices.
-void walk(const Topology& T, const Features& feat, int v, int e, int count, std::vector<int>& out) {
+/// v continues the curve: a non-corner vertex with exactly two feature edges whose lengths differ
+/// by at most opt.curve_break_ratio (a bigger jump marks where a CAD exporter's sampling changes,
+/// e.g. a straight segment, one long edge, meeting an arc of short ones: a fit across the junction
+/// would carry the arc's curvature along the straight edge).
+bool through(const Mesh& mesh, const Topology& T, const Features& feat, int v, const FitOptions& opt) {
+  if (feat.vertex_corner[v]) return false;
+  const std::vector<int> fe = feature_edges_at(T, feat, v);
+  if (fe.size() != 2) return false;
+  const double a = edge_length(mesh, T, fe[0]), b = edge_length(mesh, T, fe[1]);
+  return std::max(a, b) <= opt.curve_break_ratio * std::min(a, b);
+}
+
+/// Walks from v across e and onwards through vertices that continue the curve, up to count vertices.
+void walk(const Mesh& mesh, const Topology& T, const Features& feat, const FitOptions& opt, int v, int e,
+          int count, std::vector<int>& out) {
   int prev = v, edge = e;
   for (int i = 0; i < count; ++i) {
     const int u = T.other(edge, prev);
     if (u == v) break;  // closed loop
     out.push_back(u);
-    if (!through(T, feat, u)) break;
+    if (!through(mesh, T, feat, u, opt)) break;
     auto fe = feature_edges_at(T, feat, u);
     edge = fe[0] == edge ? fe[1] : fe[0];
     prev = u;
@@ -61,10 +73,10 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
   C.o = mesh.V.row(v).transpose();
   const int per_side = p + 1;
   std::vector<int> fwd, bwd;
-  walk(T, feat, v, e, per_side, fwd);
-  if (through(T, feat, v)) {
+  walk(mesh, T, feat, opt, v, e, per_side, fwd);
+  if (through(mesh, T, feat, v, opt)) {
     auto fe = feature_edges_at(T, feat, v);
-    walk(T, feat, v, fe[0] == e ? fe[1] : fe[0], per_side, bwd);
+    walk(mesh, T, feat, opt, v, fe[0] == e ? fe[1] : fe[0], per_side, bwd);
   }
   // Tangent from the two neighbours (or the one, at corners and curve ends).
   Eigen::Vector3d t = (mesh.V.row(fwd[0]).transpose() - C.o).normalized();

@@ -74,11 +74,14 @@ struct FitOptions {
   /// lines (CAD strips) ~4e-6. Below it the fit also falls back to short_fit_degree.
   double support_condition = 1e-4;
   int short_fit_degree = 2;
-  bool support_everywhere = false;
+  bool support_everywhere = false;  ///< testing: add support points to every fit, not only short ones
   /// Sanity bound (fitting.md 2.7, suggested extra): a fit that moves a point of its wedge's
   /// faces by more than max_offset x sqrt(2 x face area) is refitted one degree lower, down to
   /// the straight triangles. Catches extrapolating fits on CAD needles and thin parts.
-  double max_offset = 0.5;  ///< testing: add support points to every fit, not only short ones
+  double max_offset = 0.5;
+  /// Feature-curve fits (curve_fit.hpp) do not reach across a curve vertex whose two curve edges
+  /// differ in length by more than this factor: the fits on either side are one-sided there.
+  double curve_break_ratio = 3.0;
 };
 
 /// Number of coefficients of the interpolatory basis u^j v^k, 1 <= j+k <= p.

@@ -122,6 +122,41 @@ Mesh graded_torus(int n, int m, double R, double r, double a) {
   return M;
 }
 
+
+/// CAD-export-like stadium plate: two half-discs of radius r around (+-a, 0) joined by straight
+/// sides, extruded to z in [0, h]. Each arc has n short edges, each straight side ONE long edge;
+/// the walls are one row of strips and the caps fans from vertex 0, so every vertex is on a rim.
+/// The walls meet tangentially (no feature between them): only the two rims are sharp.
+Mesh stadium_plate(int n, double a, double r, double h) {
+  std::vector<Eigen::Vector2d> ring;
+  for (int i = 0; i <= n; ++i) {
+    const double t = -M_PI / 2 + M_PI * i / n;
+    ring.emplace_back(a + r * std::cos(t), r * std::sin(t));
+  }
+  for (int i = 0; i <= n; ++i) {
+    const double t = M_PI / 2 + M_PI * i / n;
+    ring.emplace_back(-a + r * std::cos(t), r * std::sin(t));
+  }
+  const int k = static_cast<int>(ring.size());
+  Mesh M;
+  M.V.resize(2 * k, 3);
+  for (int i = 0; i < k; ++i) {
+    M.V.row(i) << ring[i].x(), ring[i].y(), 0.0;
+    M.V.row(k + i) << ring[i].x(), ring[i].y(), h;
+  }
+  M.F.resize(2 * (k - 2) + 2 * k, 3);
+  int f = 0;
+  for (int i = 1; i + 1 < k; ++i) {
+    M.F.row(f++) << 0, i + 1, i;              // bottom cap, normal -z
+    M.F.row(f++) << k, k + i, k + i + 1;      // top cap, normal +z
+  }
+  for (int i = 0; i < k; ++i) {
+    const int j = (i + 1) % k;
+    M.F.row(f++) << i, j, k + j;
+    M.F.row(f++) << i, k + j, k + i;
+  }
+  return M;
+}
 }  // namespace
 
 TEST_CASE("capped cylinder with sharp rims: rims stay on the rim circles") {
@@ -152,6 +187,42 @@ TEST_CASE("capped cylinder with sharp rims: rims stay on the rim circles") {
   MESSAGE("rim edges " << rim_edges << ", rim node distance to the circle " << rim_err << " (chord sagitta " << chord << ")");
   CHECK(rim_edges == 96);
   CHECK(rim_err < 1e-2 * chord);
+}
+
+TEST_CASE("a CAD export's long straight edge between arcs stays straight") {
+  // Where a straight side (one long edge) meets an arc of short edges tangentially, no corner
+  // stops the rim's curve fits: fitted across the junction they carried the arc's curvature along
+  // the straight edge (measured on lever_solidedge.stl: P6 bulge 6.8% of the diagonal).
+  const double a = 1.0, r = 0.5, h = 0.3;
+  const Mesh m = stadium_plate(16, a, r, h);
+  for (int p : {4, 6}) {
+    CurveOptions o;
+    o.order = p;
+    const CurveResult R = curve_mesh(m, o);
+    check_result(m, R);
+    double straight_off = 0, arc_err = 0;
+    const HighOrderMesh& hm = R.mesh;
+    for (Eigen::Index e = 0; e < hm.E.rows(); ++e) {
+      const Eigen::Vector3d x0 = hm.V.row(hm.E(e, 0)), x1 = hm.V.row(hm.E(e, 1));
+      if (std::abs(x0.z() - x1.z()) > 1e-12) continue;  // horizontal edges: rims and cap chords
+      const bool side = std::abs(std::abs(x0.y()) - r) < 1e-12 && std::abs(x1.y() - x0.y()) < 1e-12 &&
+                        std::abs(x0.x() - x1.x()) > a;
+      const bool arc = std::abs(x0.x()) >= a - 1e-12 && std::abs(x1.x()) >= a - 1e-12 &&
+                       (x0 - x1).norm() < 0.15;  // one arc step (0.098), not a cap chord over two (0.196)
+      for (int k = 0; k < p - 1; ++k) {
+        const Eigen::Vector3d x = hm.edge_nodes.row(e * (p - 1) + k);
+        if (side) straight_off = std::max(straight_off, std::abs(std::abs(x.y()) - r) + std::abs(x.z() - x0.z()));
+        if (arc) {
+          const Eigen::Vector2d c(x.x() > 0 ? a : -a, 0.0);
+          arc_err = std::max(arc_err, std::abs((x.head<2>() - c).norm() - r));
+        }
+      }
+    }
+    const double sagitta = r * (1 - std::cos(M_PI / 32));
+    MESSAGE("stadium P" << p << ": straight rim nodes off the line by " << straight_off << ", arc rim nodes off the circle by "
+                        << arc_err << " (chord sagitta " << sagitta << ")");
+    CHECK(straight_off < 1e-9);
+  }
 }
 
 TEST_CASE("corners of a feature network stay put and the cube-like box stays flat") {
