@@ -56,15 +56,27 @@ void walk(const Mesh& mesh, const Topology& T, const Features& feat, const FitOp
 
 }  // namespace
 
+Eigen::Vector3d CurveFit::coords(const Eigen::Vector3d& q) const {
+  const Eigen::Vector3d d = q - o;
+  const double x = d.dot(t), y = d.dot(n1), z = d.dot(n2);
+  if (kappa == 0) return {x, y, z};
+  // Polar coordinates about the centre (0, R) of the (t, n1) plane; R - |q - centre| written
+  // without cancellation.
+  const double R = 1.0 / kappa, r = std::sqrt(x * x + (R - y) * (R - y));
+  return {R * std::atan2(x, R - y), (2 * R * y - x * x - y * y) / (R + r), z};
+}
+
 Eigen::Vector3d CurveFit::project(const Eigen::Vector3d& x) const {
-  const double s = (x - o).dot(t);
+  const double s = coords(x)[0];
   double y = 0, z = 0, pw = 1;
   for (int j = 0; j < degree; ++j) {
     pw *= s / h;
     y += cy[j] * pw;
     z += cz[j] * pw;
   }
-  return o + s * t + h * (y * n1 + z * n2);
+  if (kappa == 0) return o + s * t + h * (y * n1 + z * n2);
+  const double R = 1.0 / kappa, phi = s * kappa, rho = R - h * y, half = std::sin(0.5 * phi);
+  return o + rho * std::sin(phi) * t + (2 * R * half * half + h * y * std::cos(phi)) * n1 + h * z * n2;
 }
 
 CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat, int v, int e,
@@ -95,25 +107,22 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
   const int need = std::max(1, std::min(k, static_cast<int>(std::ceil(opt.points_per_coef * p))));
   const double sigma = std::max(opt.sigma_factor * C.h, 0.5 * sd[need - 1]);
 
-  auto solve = [&](const Eigen::Vector3d& tan, CurveFit& out) {
+  // Fits in the frame (tan, n1 = normal, tan x n1) over the reference circle of curvature kappa.
+  auto solve = [&](const Eigen::Vector3d& tan, const Eigen::Vector3d& normal, double kappa, CurveFit& out) {
     out.t = tan;
-    Eigen::Vector3d a = std::abs(tan.x()) <= std::abs(tan.y()) && std::abs(tan.x()) <= std::abs(tan.z())
-                            ? Eigen::Vector3d::UnitX()
-                            : (std::abs(tan.y()) <= std::abs(tan.z()) ? Eigen::Vector3d::UnitY()
-                                                                       : Eigen::Vector3d::UnitZ());
-    out.n1 = (a - a.dot(tan) * tan).normalized();
+    out.n1 = (normal - normal.dot(tan) * tan).normalized();
     out.n2 = tan.cross(out.n1);
+    out.kappa = kappa;
     for (int deg = std::min(p, k); deg >= 1; --deg) {
       Eigen::MatrixXd A(k, deg);
       Eigen::MatrixXd B(k, 2);
       for (int i = 0; i < k; ++i) {
-        const Eigen::Vector3d d = mesh.V.row(pts[i]).transpose() - out.o;
+        const Eigen::Vector3d q = out.coords(mesh.V.row(pts[i]).transpose()) / out.h;
         const double w = std::exp(-dist[i] * dist[i] / (2 * sigma * sigma));
-        const double s = d.dot(tan) / out.h;
         double pw = 1;
-        for (int j = 0; j < deg; ++j) A(i, j) = w * (pw *= s);
-        B(i, 0) = w * d.dot(out.n1) / out.h;
-        B(i, 1) = w * d.dot(out.n2) / out.h;
+        for (int j = 0; j < deg; ++j) A(i, j) = w * (pw *= q[0]);
+        B(i, 0) = w * q[1];
+        B(i, 1) = w * q[2];
       }
       Eigen::VectorXd scale(deg);
       for (int j = 0; j < deg; ++j) scale[j] = 1.0 / std::max(A.col(j).norm(), 1e-300), A.col(j) *= scale[j];
@@ -129,11 +138,26 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
     }
     out.degree = 0;
   };
-  solve(t, C);
+  const Eigen::Vector3d a = std::abs(t.x()) <= std::abs(t.y()) && std::abs(t.x()) <= std::abs(t.z())
+                               ? Eigen::Vector3d::UnitX()
+                               : (std::abs(t.y()) <= std::abs(t.z()) ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitZ());
+  solve(t, a, 0.0, C);
   // Refine the tangent from the first fit's slope at s = 0.
   if (C.degree >= 1) {
     Eigen::Vector3d t1 = (C.t + C.cy[0] * C.n1 + C.cz[0] * C.n2).normalized();
-    if (t1.dot(t) > 0.5) solve(t1, C);
+    if (t1.dot(t) > 0.5) solve(t1, C.n1, 0.0, C);
+  }
+  // Refit over the osculating circle of that fit (curvature vector 2 (cy_2 n1 + cz_2 n2) / h with
+  // the tangent refined), limited to 1.5 / the stencil's reach so that every point stays within
+  // about 150 degrees of o on it, and none when negligible.
+  if (opt.curve_reference_circle && C.degree >= 2) {
+    const Eigen::Vector3d kv = 2 * (C.cy[1] * C.n1 + C.cz[1] * C.n2) / C.h;
+    const double reach = sd.back(), kappa = std::min(kv.norm(), 1.5 / reach);
+    if (kappa * reach > 1e-3) {
+      CurveFit R = C;
+      solve(C.t, kv, kappa, R);
+      if (R.degree >= 1) C = R;
+    }
   }
   // Sanity bound: along edge e the curve may not leave the chord by more than max_offset x
   // the edge length; else one degree lower (degree 0 is the chord itself).
@@ -147,6 +171,7 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
   if (!sane && C.degree > 0) {
     if (p > 1) return fit_curve_at(mesh, T, feat, v, e, std::min(p - 1, C.degree), opt);
     C.degree = 0;
+    C.kappa = 0;
   }
   return C;
 }

@@ -12,15 +12,22 @@
 namespace hocurve {
 
 /// A curve through o: x(s) = o + s t + y(s) n1 + z(s) n2, y and z interpolatory polynomials
-/// (no constant term) in s/h with coefficients cy, cz giving offsets / h.
+/// (no constant term) in s/h with coefficients cy, cz giving offsets / h. With a reference circle
+/// (kappa > 0: radius 1 / kappa, centre o + n1 / kappa, in the plane of t and n1) s is the arc
+/// length along the circle, y the offset from it towards its centre and z out of its plane: the
+/// curve's osculating circle, as the osculating torus for surface fits (local_fit.hpp), so that
+/// arcs of CAD rims and holes are fitted exactly and stencils spanning a large angle converge.
 struct CurveFit {
   Eigen::Vector3d o = Eigen::Vector3d::Zero(), t = Eigen::Vector3d::UnitX(),
                   n1 = Eigen::Vector3d::UnitY(), n2 = Eigen::Vector3d::UnitZ();
   double h = 1.0;
+  double kappa = 0;  ///< curvature of the reference circle (0: the tangent line)
   int degree = 0;
   Eigen::VectorXd cy, cz;
   int points = 0;
-  /// The fitted curve point whose parameter is x's projection on t.
+  /// (s, y, z) of a point in the fit's chart.
+  Eigen::Vector3d coords(const Eigen::Vector3d& q) const;
+  /// The fitted curve point at x's parameter s.
   Eigen::Vector3d project(const Eigen::Vector3d& x) const;
 };
 

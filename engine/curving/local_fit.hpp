@@ -82,6 +82,8 @@ struct FitOptions {
   /// Feature-curve fits (curve_fit.hpp) do not reach across a curve vertex whose two curve edges
   /// differ in length by more than this factor: the fits on either side are one-sided there.
   double curve_break_ratio = 3.0;
+  /// Feature-curve fits measure offsets from the curve's osculating circle (CurveFit::kappa).
+  bool curve_reference_circle = true;
 };
 
 /// Number of coefficients of the interpolatory basis u^j v^k, 1 <= j+k <= p.

@@ -201,6 +201,7 @@ TEST_CASE("a CAD export's long straight edge between arcs stays straight") {
     const CurveResult R = curve_mesh(m, o);
     check_result(m, R);
     double straight_off = 0, arc_err = 0;
+    int arc_edges = 0, arc_edges_off = 0;  // off: a node more than 1e-6 off the circle
     const HighOrderMesh& hm = R.mesh;
     for (Eigen::Index e = 0; e < hm.E.rows(); ++e) {
       const Eigen::Vector3d x0 = hm.V.row(hm.E(e, 0)), x1 = hm.V.row(hm.E(e, 1));
@@ -209,19 +210,30 @@ TEST_CASE("a CAD export's long straight edge between arcs stays straight") {
                         std::abs(x0.x() - x1.x()) > a;
       const bool arc = std::abs(x0.x()) >= a - 1e-12 && std::abs(x1.x()) >= a - 1e-12 &&
                        (x0 - x1).norm() < 0.15;  // one arc step (0.098), not a cap chord over two (0.196)
+      double edge_err = 0;
       for (int k = 0; k < p - 1; ++k) {
         const Eigen::Vector3d x = hm.edge_nodes.row(e * (p - 1) + k);
         if (side) straight_off = std::max(straight_off, std::abs(std::abs(x.y()) - r) + std::abs(x.z() - x0.z()));
         if (arc) {
           const Eigen::Vector2d c(x.x() > 0 ? a : -a, 0.0);
-          arc_err = std::max(arc_err, std::abs((x.head<2>() - c).norm() - r));
+          edge_err = std::max(edge_err, std::abs((x.head<2>() - c).norm() - r));
         }
       }
+      arc_edges += arc;
+      arc_edges_off += edge_err > 1e-6;
+      arc_err = std::max(arc_err, edge_err);
     }
     const double sagitta = r * (1 - std::cos(M_PI / 32));
     MESSAGE("stadium P" << p << ": straight rim nodes off the line by " << straight_off << ", arc rim nodes off the circle by "
-                        << arc_err << " (chord sagitta " << sagitta << ")");
+                        << arc_err << " (chord sagitta " << sagitta << "), " << arc_edges_off << " of " << arc_edges
+                        << " arc edges more than 1e-6 off");
     CHECK(straight_off < 1e-9);
+    // The rim curves follow the circle (osculating-circle curve fits) except on the first arc edge
+    // at each junction: the cap fans' sliver there is invalid when curved and the repair pulls it
+    // partly back (4 junctions x 2 rims).
+    CHECK(arc_edges == 64);
+    CHECK(arc_edges_off <= 8);
+    CHECK(arc_err < 0.25 * sagitta);
   }
 }
 
