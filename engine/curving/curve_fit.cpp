@@ -138,10 +138,9 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
     }
     out.degree = 0;
   };
-  const Eigen::Vector3d a = std::abs(t.x()) <= std::abs(t.y()) && std::abs(t.x()) <= std::abs(t.z())
-                               ? Eigen::Vector3d::UnitX()
-                               : (std::abs(t.y()) <= std::abs(t.z()) ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitZ());
-  solve(t, a, 0.0, C);
+  Eigen::Vector3d n1, n2;
+  tangent_frame(t, n1, n2);  // any normal: the fit is the same in every normal frame
+  solve(t, n1, 0.0, C);
   // Refine the tangent from the first fit's slope at s = 0.
   if (C.degree >= 1) {
     Eigen::Vector3d t1 = (C.t + C.cy[0] * C.n1 + C.cz[0] * C.n2).normalized();
