@@ -28,13 +28,14 @@ SHAPES = {
     "t20": {"kind": "step", "file": "cad/t20_data.step"},
 }
 
-# Mesh sizes per shape (coarse, middle, fine). Analytic shapes use absolute sizes (sphere middle
-# h=0.1 gives ~3.2k triangles); CAD parts use fractions of their bounding-box diagonal.
+# Mesh sizes per shape (coarse, middle, fine; accuracy.py --sizes N takes the first N). Analytic
+# shapes use absolute sizes (sphere middle h=0.1 gives ~3.2k triangles) and have a 4th, finer size
+# for the asymptotic order (--sizes 4); CAD parts use fractions of their bounding-box diagonal.
 SIZES = {
-    "sphere": [0.2, 0.1, 0.05],
-    "torus": [0.2, 0.1, 0.05],
-    "ellipsoid": [0.2, 0.1, 0.05],
-    "cylinder": [0.2, 0.1, 0.05],
+    "sphere": [0.2, 0.1, 0.05, 0.025],
+    "torus": [0.2, 0.1, 0.05, 0.025],
+    "ellipsoid": [0.2, 0.1, 0.05, 0.025],
+    "cylinder": [0.2, 0.1, 0.05, 0.025],
     "screw": ["d/40", "d/80", "d/160"],
     "t20": ["d/20", "d/40", "d/80"],
 }
