@@ -54,6 +54,7 @@ nlohmann::json decimation_json(const DecimateResult& d, double seconds) {
           {"reached_target", d.reached_target},
           {"message", d.message},
           {"collapses", d.collapses},
+          {"deferred", d.deferred},
           {"rejected",
            {{"total", r.total()}, {"link", r.link}, {"feature", r.feature}, {"boundary", r.boundary},
             {"valence", r.valence}, {"fold", r.fold}, {"sliver", r.sliver}, {"flatten", r.flatten}}},

@@ -167,14 +167,16 @@ struct Entry {
   double cost;
   int a, b;
   unsigned va, vb;
+  bool deferred = false;  ///< re-queued for moving its dense points too far: after every other entry
   bool operator>(const Entry& o) const {
+    if (deferred != o.deferred) return deferred;
     if (cost != o.cost) return cost > o.cost;
     if (a != o.a) return a > o.a;
     return b > o.b;
   }
 };
 
-enum class Reason { ok, link, feature, boundary, valence, fold, sliver, flatten };
+enum class Reason { ok, link, feature, boundary, valence, fold, sliver, flatten, deferred };
 
 struct Plan {
   Reason reason = Reason::ok;
@@ -197,6 +199,11 @@ struct Decimator {
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
   int faces_alive = 0;
   double cos_fold = 0, cos_min_angle = 0;
+  /// Collapses that would leave a tracked dense vertex further than this from the straight coarse
+  /// surface are deferred (0: never); X0: the dense positions.
+  double defer_distance = 0;
+  std::vector<Eigen::Vector3d> X0;
+  double last_deviation = 0;  ///< of the last collapse checked for deferral
 
   // tracking of fine vertices
   bool track = false;
@@ -271,10 +278,10 @@ struct Decimator {
     heap.push({P.cost, std::min(a, b), std::max(a, b), ver[std::min(a, b)], ver[std::max(a, b)]});
   }
 
-  Reason check_and_collapse(const Plan& P);
+  Reason check_and_collapse(const Plan& P, bool may_defer);
 };
 
-Reason Decimator::check_and_collapse(const Plan& P) {
+Reason Decimator::check_and_collapse(const Plan& P, bool may_defer) {
   const int s = P.s, r = P.r;
   // Patch: faces around s or r.
   std::vector<int> pf = vf[s];
@@ -360,6 +367,41 @@ Reason Decimator::check_and_collapse(const Plan& P) {
     t_flatten += seconds_since(t0);
     if (!flat.ok) return Reason::flatten;
   }
+  // Where the tracked dense vertices land: (vertex, post-collapse triangle, barycentrics).
+  struct Landing { int pt, tri; Eigen::Vector3d bary; };
+  std::vector<Landing> landings;
+  std::vector<std::array<int, 3>> post_tris;
+  std::vector<int> post_ids;
+  if (track) {
+    const auto t0 = Clock::now();
+    for (size_t k = 0; k < pf.size(); ++k)
+      if (!patch.removed[k]) post_tris.push_back(post_triangle(patch, static_cast<int>(k))), post_ids.push_back(pf[k]);
+    for (size_t k = 0; k < pf.size(); ++k)
+      for (int pt : face_pts[pf[k]]) {
+        const auto& t = patch.faces[k];
+        const Eigen::Vector3d& b = pt_bary[pt];
+        const Eigen::Vector2d q = b[0] * flat.uv[t[0]] + b[1] * flat.uv[t[1]] + b[2] * flat.uv[t[2]];
+        Landing L{pt, 0, Eigen::Vector3d::Zero()};
+        L.tri = locate_uv(flat.uv.data(), post_tris.data(), static_cast<int>(post_tris.size()), q, L.bary, nullptr);
+        landings.push_back(L);
+      }
+    t_track += seconds_since(t0);
+  }
+  // Their largest distance from the straight faces after the collapse.
+  if (track && may_defer && defer_distance > 0) {
+    const int post = patch.post_reuses_survivor_uv ? 0 : static_cast<int>(patch.X.size());
+    double dev = 0;
+    for (const Landing& L : landings) {
+      Eigen::Vector3d x = Eigen::Vector3d::Zero();
+      for (int j = 0; j < 3; ++j) {
+        const int l = post_tris[L.tri][j];
+        x += L.bary[j] * (l == post ? P.p : patch.X[l]);
+      }
+      dev = std::max(dev, (x - X0[L.pt]).norm());
+    }
+    last_deviation = dev;
+    if (dev > defer_distance) return Reason::deferred;
+  }
 
   // --- accepted: record, move tracked points, update connectivity ---
   if (map) {
@@ -377,27 +419,12 @@ Reason Decimator::check_and_collapse(const Plan& P) {
     map->rec_edge.push_back({s, r});
   }
   if (track) {
-    const auto t0 = Clock::now();
-    std::vector<std::array<int, 3>> post_tris;
-    std::vector<int> post_ids;
-    for (size_t k = 0; k < pf.size(); ++k)
-      if (!patch.removed[k]) post_tris.push_back(post_triangle(patch, static_cast<int>(k))), post_ids.push_back(pf[k]);
-    std::vector<int> moving;
-    for (size_t k = 0; k < pf.size(); ++k) {
-      for (int pt : face_pts[pf[k]]) {
-        const auto& t = patch.faces[k];
-        const Eigen::Vector3d& b = pt_bary[pt];
-        const Eigen::Vector2d q = b[0] * flat.uv[t[0]] + b[1] * flat.uv[t[1]] + b[2] * flat.uv[t[2]];
-        Eigen::Vector3d nb;
-        const int hit = locate_uv(flat.uv.data(), post_tris.data(), static_cast<int>(post_tris.size()), q, nb, nullptr);
-        pt_face[pt] = post_ids[hit];
-        pt_bary[pt] = nb;
-        moving.push_back(pt);
-      }
-      face_pts[pf[k]].clear();
+    for (size_t k = 0; k < pf.size(); ++k) face_pts[pf[k]].clear();
+    for (const Landing& L : landings) {
+      pt_face[L.pt] = post_ids[L.tri];
+      pt_bary[L.pt] = L.bary;
+      face_pts[pt_face[L.pt]].push_back(L.pt);
     }
-    for (int pt : moving) face_pts[pt_face[pt]].push_back(pt);
-    t_track += seconds_since(t0);
   }
   // Feature edges of r move to s.
   for (int x : nr) {
@@ -450,6 +477,11 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
   const FeatureMarks fm = mark_features(fine, T, opt);
 
   Decimator D(opt);
+  if (opt.build_map && opt.defer_deviation > 0) {
+    D.defer_distance = opt.defer_deviation * (fine.V.colwise().maxCoeff() - fine.V.colwise().minCoeff()).norm();
+    D.X0.resize(nv);
+    for (int v = 0; v < nv; ++v) D.X0[v] = fine.V.row(v).transpose();
+  }
   D.cos_fold = std::cos(opt.max_normal_change_deg * std::numbers::pi / 180);
   D.cos_min_angle = std::cos(opt.min_angle_deg * std::numbers::pi / 180);
   D.X.resize(nv);
@@ -523,9 +555,17 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
     if (!D.v_alive[en.a] || !D.v_alive[en.b] || D.ver[en.a] != en.va || D.ver[en.b] != en.vb) continue;
     const Plan P = D.plan(en.a, en.b);
     Reason why = P.reason;
-    if (why == Reason::ok) why = D.check_and_collapse(P);
+    if (why == Reason::ok) why = D.check_and_collapse(P, !en.deferred);
     switch (why) {
       case Reason::ok: ++R.collapses; continue;
+      case Reason::deferred: {
+        Entry later = en;
+        later.deferred = true;
+        later.cost = D.last_deviation;
+        D.heap.push(later);
+        ++R.deferred;
+        continue;
+      }
       case Reason::link: ++R.rejected.link; break;
       case Reason::feature: ++R.rejected.feature; break;
       case Reason::boundary: ++R.rejected.boundary; break;
@@ -563,7 +603,8 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
   R.reached_target = ncf <= R.target_faces;
   R.message = (R.reached_target ? "reached " : "target not reached: stopped at ") + std::to_string(ncf) +
               " faces (target " + std::to_string(R.target_faces) + ", input " + std::to_string(nf) + ") after " +
-              std::to_string(R.collapses) + " collapses; " + std::to_string(R.rejected.total()) +
+              std::to_string(R.collapses) + " collapses (" + std::to_string(R.deferred) +
+              " put off for their distance to the dense surface); " + std::to_string(R.rejected.total()) +
               " refused collapses (link " + std::to_string(R.rejected.link) + ", feature " +
               std::to_string(R.rejected.feature) + ", boundary " + std::to_string(R.rejected.boundary) +
               ", valence " + std::to_string(R.rejected.valence) + ", fold " + std::to_string(R.rejected.fold) +
