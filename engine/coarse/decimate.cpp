@@ -199,11 +199,10 @@ struct Decimator {
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
   int faces_alive = 0;
   double cos_fold = 0, cos_min_angle = 0;
-  /// Collapses that would leave a tracked dense vertex further than this from the straight coarse
-  /// surface are deferred (0: never); X0: the dense positions.
+  /// Collapses that would leave a tracked dense vertex (positions dense_V) further than this from
+  /// the straight coarse surface are deferred (0: never).
   double defer_distance = 0;
-  std::vector<Eigen::Vector3d> X0;
-  double last_deviation = 0;  ///< of the last collapse checked for deferral
+  const Eigen::MatrixXd* dense_V = nullptr;
 
   // tracking of fine vertices
   bool track = false;
@@ -278,10 +277,12 @@ struct Decimator {
     heap.push({P.cost, std::min(a, b), std::max(a, b), ver[std::min(a, b)], ver[std::max(a, b)]});
   }
 
-  Reason check_and_collapse(const Plan& P, bool may_defer);
+  /// Performs the collapse of P unless a check refuses it. may_defer: a collapse moving the dense
+  /// surface further than defer_distance returns Reason::deferred with that distance in deviation.
+  Reason check_and_collapse(const Plan& P, bool may_defer, double& deviation);
 };
 
-Reason Decimator::check_and_collapse(const Plan& P, bool may_defer) {
+Reason Decimator::check_and_collapse(const Plan& P, bool may_defer, double& deviation) {
   const int s = P.s, r = P.r;
   // Patch: faces around s or r.
   std::vector<int> pf = vf[s];
@@ -397,9 +398,9 @@ Reason Decimator::check_and_collapse(const Plan& P, bool may_defer) {
         const int l = post_tris[L.tri][j];
         x += L.bary[j] * (l == post ? P.p : patch.X[l]);
       }
-      dev = std::max(dev, (x - X0[L.pt]).norm());
+      dev = std::max(dev, (x - dense_V->row(L.pt).transpose()).norm());
     }
-    last_deviation = dev;
+    deviation = dev;
     if (dev > defer_distance) return Reason::deferred;
   }
 
@@ -479,8 +480,7 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
   Decimator D(opt);
   if (opt.build_map && opt.defer_deviation > 0) {
     D.defer_distance = opt.defer_deviation * (fine.V.colwise().maxCoeff() - fine.V.colwise().minCoeff()).norm();
-    D.X0.resize(nv);
-    for (int v = 0; v < nv; ++v) D.X0[v] = fine.V.row(v).transpose();
+    D.dense_V = &fine.V;
   }
   D.cos_fold = std::cos(opt.max_normal_change_deg * std::numbers::pi / 180);
   D.cos_min_angle = std::cos(opt.min_angle_deg * std::numbers::pi / 180);
@@ -555,13 +555,14 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
     if (!D.v_alive[en.a] || !D.v_alive[en.b] || D.ver[en.a] != en.va || D.ver[en.b] != en.vb) continue;
     const Plan P = D.plan(en.a, en.b);
     Reason why = P.reason;
-    if (why == Reason::ok) why = D.check_and_collapse(P, !en.deferred);
+    double deviation = 0;
+    if (why == Reason::ok) why = D.check_and_collapse(P, !en.deferred, deviation);
     switch (why) {
       case Reason::ok: ++R.collapses; continue;
       case Reason::deferred: {
         Entry later = en;
         later.deferred = true;
-        later.cost = D.last_deviation;
+        later.cost = deviation;
         D.heap.push(later);
         ++R.deferred;
         continue;
