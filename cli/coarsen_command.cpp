@@ -5,6 +5,7 @@
 
 #include "engine/coarse/decimate.hpp"
 #include "engine/coarse/lift.hpp"
+#include "engine/coarse/vertex_fans.hpp"
 #include "engine/core/error.hpp"
 #include "engine/highorder/write_msh.hpp"
 
@@ -150,9 +151,12 @@ int run_coarsen(int argc, char** argv) {
   LoadedInput in = load_input(input, progress);
   const double t1 = now_seconds();
   progress("decimate", 0.1);
-  const DecimateResult dec = decimate(in.mesh, dopt);
+  // Non-manifold vertices (parts touching at a point): one pinned copy per fan of faces.
+  const FanSplit split = split_vertex_fans(in.mesh);
+  dopt.pinned_vertices = split.pinned;
+  const DecimateResult dec = decimate(split.mesh, dopt);
   const double t2 = now_seconds();
-  const LiftResult lift = lift_coarse(in.mesh, dec, lopt);
+  const LiftResult lift = lift_coarse(split.mesh, dec, lopt);
   const double t3 = now_seconds();
   progress("write", 0.9);
   write_msh_file(lift.mesh, output, msh);
@@ -164,6 +168,7 @@ int run_coarsen(int argc, char** argv) {
     s["generator"] = std::string("hocurve ") + HOCURVE_VERSION;
     s["input"] = input_json(input, in);
     s["decimation"] = decimation_json(dec, t2 - t1);
+    s["decimation"]["split_vertices"] = split.split_vertices;
     s["lifting"] = lift_json(lift);
     s["output"] = {{"file", output},
                    {"format", msh.version == MshOptions::Version::V22 ? "msh22" : "msh41"},

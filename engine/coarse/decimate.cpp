@@ -1,7 +1,10 @@
 #include "engine/coarse/decimate.hpp"
 
+#include "engine/coarse/vertex_fans.hpp"
+
 #include "engine/coarse/flatten.hpp"
 #include "engine/coarse/quadric.hpp"
+#include "engine/coarse/vertex_fans.hpp"
 #include "engine/core/error.hpp"
 #include "engine/core/topology.hpp"
 #include "engine/curving/features.hpp"
@@ -128,29 +131,11 @@ void check_manifold(const Mesh& m, const Topology& T) {
     }
   }
   // Vertex manifoldness: the faces around v, linked through shared edges, form one fan.
-  std::vector<int> comp;
-  for (int v = 0; v < m.num_vertices(); ++v) {
-    auto [b, e] = T.faces_of(v);
-    const int k = static_cast<int>(e - b);
-    if (k == 0) continue;
-    comp.assign(k, -1);
-    std::vector<int> stack{0};
-    comp[0] = 0;
-    int seen = 1;
-    while (!stack.empty()) {
-      const int i = stack.back();
-      stack.pop_back();
-      for (int j = 0; j < k; ++j) {
-        if (comp[j] >= 0) continue;
-        int shared = 0;
-        for (int x = 0; x < 3; ++x)
-          for (int y = 0; y < 3; ++y) shared += m.F(b[i], x) == m.F(b[j], y);
-        if (shared >= 2) comp[j] = 0, ++seen, stack.push_back(j);
-      }
-    }
-    if (seen != k)
-      throw InputError(where, "vertex " + std::to_string(v) + " joins several fans of faces: non-manifold");
-  }
+  std::vector<int> fan;
+  for (int v = 0; v < m.num_vertices(); ++v)
+    if (vertex_fans(m, T, v, fan) > 1)
+      throw InputError(where, "vertex " + std::to_string(v) +
+                                  " joins several fans of faces: non-manifold (split_vertex_fans() gives each fan its own copy)");
 }
 
 double min_angle_cos_max(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
@@ -475,7 +460,11 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
                                         : std::max(4, static_cast<int>(std::lround(opt.target_ratio * nf)));
   const Topology T = build_topology(fine.F, nv);
   check_manifold(fine, T);
-  const FeatureMarks fm = mark_features(fine, T, opt);
+  FeatureMarks fm = mark_features(fine, T, opt);
+  for (int v : opt.pinned_vertices) {
+    if (v < 0 || v >= nv) throw UsageError("decimate: pinned vertex " + std::to_string(v) + " out of range");
+    fm.vertex[v] = fm.corner[v] = 1;
+  }
 
   Decimator D(opt);
   if (opt.build_map && opt.defer_deviation > 0) {
@@ -580,12 +569,15 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
 
   // --- compact the coarse mesh ---
   std::vector<int> vmap(nv, -1);
+  std::vector<char> pinned(nv, 0);
+  for (int v : opt.pinned_vertices) pinned[v] = 1;
   int ncv = 0;
   for (int v = 0; v < nv; ++v)
     if (D.v_alive[v] && !D.vf[v].empty()) {
       vmap[v] = ncv++;
       R.coarse_vertex_origin.push_back(v);
       R.coarse_vertex_feature.push_back(D.vfeat[v]);
+      R.coarse_vertex_pinned.push_back(pinned[v]);
     }
   R.coarse.V.resize(ncv, 3);
   for (int v = 0; v < nv; ++v)

@@ -35,6 +35,9 @@ struct DecimateOptions {
   /// and at 2% armadillo 1.58 -> 0.91%; on CAD exports mixed (lever 5.5 -> 4.8%, king 3.9 -> 4.5%).
   /// 0.005 / 0.0075 / 0.015 / 0.02 were each worse than 0.01 on at least two of the four scans.
   double defer_deviation = 0.01;
+  /// Vertices that never move and are never removed (e.g. FanSplit::pinned: the copies of a
+  /// split non-manifold vertex, which must stay together).
+  std::vector<int> pinned_vertices;
 };
 
 /// Collapses that were attempted and refused, by reason (one edge can be refused several times).
@@ -55,6 +58,7 @@ struct DecimateResult {
   std::vector<int> coarse_vertex_origin;  ///< coarse vertex -> the fine vertex it continues
   /// Coarse vertex on a feature curve the decimation kept: it never moved (it sits on its origin).
   std::vector<char> coarse_vertex_feature;
+  std::vector<char> coarse_vertex_pinned;  ///< coarse vertex continues a pinned vertex (it never moved)
   int target_faces = 0;
   bool reached_target = false;
   std::string message;              ///< one line: what was reached, and why it stopped

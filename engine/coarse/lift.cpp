@@ -249,7 +249,8 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   const CoarseMap& map = dec.map;
   if (static_cast<int>(map.vertex_coarse_face.size()) != fine.num_vertices() ||
       static_cast<int>(map.cf_start.size()) != dec.coarse.num_faces() + 1 ||
-      static_cast<int>(dec.coarse_vertex_feature.size()) != dec.coarse.num_vertices())
+      static_cast<int>(dec.coarse_vertex_feature.size()) != dec.coarse.num_vertices() ||
+      dec.coarse_vertex_pinned.size() != dec.coarse_vertex_feature.size())
     throw UsageError("lift_coarse needs the decimation's map of this input (build_map = true)");
   if (dec.coarse.num_faces() == 0) throw InputError("", "the coarse mesh has no triangles");
   const auto t_all = Clock::now();
@@ -289,7 +290,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   std::vector<int> clamps(ncv, 0), steps(ncv, 0);
   parallel(ncv, [&](int v) {
     const int o = dec.coarse_vertex_origin[v];
-    if (S.features.vertex_corner[o] && dec.coarse_vertex_feature[v]) {  // else moved off it
+    if ((S.features.vertex_corner[o] && dec.coarse_vertex_feature[v]) || dec.coarse_vertex_pinned[v]) {  // else moved off it
       coarse.V.row(v) = fine.V.row(o);
       return;
     }

@@ -4,6 +4,7 @@
 #include "engine/coarse/decimate.hpp"
 #include "engine/coarse/lift.hpp"
 #include "engine/coarse/surface_distance.hpp"
+#include "engine/coarse/vertex_fans.hpp"
 #include "engine/core/error.hpp"
 #include "engine/curving/test_meshes.hpp"
 #include "engine/highorder/lagrange.hpp"
@@ -198,6 +199,57 @@ TEST_CASE("armadillo 4%: fewer folded snapped elements, and only their offending
   CHECK(conformity_gap(only.mesh) < 1e-12);
   CHECK(moved_only > 0);
   CHECK(moved_only < moved_all);
+}
+
+TEST_CASE("two spheres touching at one vertex: split, pinned, coarsened, still touching") {
+  // A non-manifold vertex (two fans of faces): decimate refuses it as it is; split_vertex_fans gives
+  // the second sphere's fan its own copy, and pinned, both copies stay at the contact point.
+  const Mesh a = coarse_test::icosphere(3);  // unit sphere, 1280 faces
+  int top = 0;
+  for (int v = 0; v < a.num_vertices(); ++v)
+    if (a.V(v, 2) > a.V(top, 2)) top = v;
+  Mesh both;
+  const int na = a.num_vertices();
+  both.V.resize(2 * na - 1, 3);
+  both.V.topRows(na) = a.V;
+  both.F.resize(2 * a.num_faces(), 3);
+  both.F.topRows(a.num_faces()) = a.F;
+  // The second sphere: mirrored through the plane z = z_top, its top vertex identified with a's.
+  std::vector<int> id(na);
+  for (int v = 0, next = na; v < na; ++v) {
+    if (v == top) { id[v] = top; continue; }
+    id[v] = next;
+    both.V.row(next++) << a.V(v, 0), a.V(v, 1), 2 * a.V(top, 2) - a.V(v, 2);
+  }
+  for (int f = 0; f < a.num_faces(); ++f)  // mirrored: reverse the orientation
+    both.F.row(a.num_faces() + f) << id[a.F(f, 0)], id[a.F(f, 2)], id[a.F(f, 1)];
+  CHECK_THROWS_AS(decimate(both, DecimateOptions{}), InputError);
+
+  const FanSplit S = split_vertex_fans(both);
+  CHECK(S.split_vertices == 1);
+  REQUIRE(S.pinned.size() == 2);
+  CHECK(S.mesh.num_vertices() == both.num_vertices() + 1);
+  CHECK((S.mesh.V.row(S.pinned[0]) - S.mesh.V.row(S.pinned[1])).norm() == 0.0);
+  DecimateOptions dopt;
+  dopt.target_ratio = 0.1;
+  dopt.pinned_vertices = S.pinned;
+  const DecimateResult D = decimate(S.mesh, dopt);
+  CHECK(D.reached_target);
+  const LiftResult L = lift_coarse(S.mesh, D, lift_options(dopt, 4));
+  CHECK(L.validity.invalid_after == 0);
+  int at_contact = 0;
+  for (Eigen::Index i = 0; i < L.mesh.V.rows(); ++i) at_contact += (L.mesh.V.row(i) - both.V.row(top)).norm() == 0.0;
+  CHECK(at_contact == 2);
+  // Each sphere is still a sphere: nodes within the dense input's own chord error of it.
+  const Eigen::MatrixXd X = all_nodes(L.mesh);
+  double off = 0;
+  for (Eigen::Index i = 0; i < X.rows(); ++i) {
+    const Eigen::Vector3d x = X.row(i).transpose();
+    const Eigen::Vector3d c(0, 0, x.z() > a.V(top, 2) ? 2 * a.V(top, 2) : 0.0);
+    off = std::max(off, std::abs((x - c).norm() - 1));
+  }
+  MESSAGE("split " << S.split_vertices << " vertex, " << D.coarse.num_faces() << " coarse faces, node distance to the spheres " << off);
+  CHECK(off < 1e-2);
 }
 
 TEST_CASE("deterministic: one thread and all threads give the same nodes") {

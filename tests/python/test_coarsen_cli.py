@@ -8,8 +8,8 @@ fractions non-decreasing up to 1; the .msh holds one element type, Gmsh's P4 tri
 many elements as the stats report and close to the target; watertight/conforming (every element
 edge's node set is shared by exactly two elements, since the torus is closed); every node lies on
 the exact torus closer than the dense input's own facets do (facet-centre distance); the stats
-report 0 invalid elements. Also --ratio with msh22 binary, and usage errors (exit 2) / refused
-input (exit 3) leave no output file.
+report 0 invalid elements. Also --ratio with msh22 binary, a raw Thingi10K file with non-manifold
+vertices (split and coarsened), and usage errors (exit 2) / refused input (exit 3) leave no output file.
 
 Usage: test_coarsen_cli.py BUILD_DIR
 """
@@ -120,6 +120,20 @@ def main(argv):
         types, conns, _ = read_msh(out2)
         n = len(conns[0]) // 10 if types == [21] else -1
         check(types == [21] and abs(n - 461) <= 46, "msh22 binary: P3 triangles (21), %d elements (~461)" % n)
+
+    # Non-manifold vertices (raw Thingi10K part touching itself at 2 points): split, pinned, coarsened.
+    nm = os.path.join(shared, "meshes", "thingi10k_449816.stl")
+    out3, stats3 = os.path.join(work, "nm.msh"), os.path.join(work, "nm.json")
+    r = subprocess.run([hoc, "coarsen", nm, "-o", out3, "--order", "4", "--ratio", "0.3", "--stats", stats3],
+                       capture_output=True, text=True, timeout=300)
+    check(r.returncode == 0, "non-manifold vertices: coarsen exits 0 (%s)" % r.stderr.strip())
+    if r.returncode == 0:
+        s3 = json.load(open(stats3))
+        types, conns, _ = read_msh(out3)
+        n = len(conns[0]) // 15 if types == [23] else -1
+        check(s3["decimation"]["split_vertices"] == 2 and s3["lifting"]["validity"]["invalid_after"] == 0
+              and n == s3["decimation"]["faces"] and n < 202,
+              "non-manifold vertices: 2 split, %d P4 elements of 202 read back, 0 invalid" % n)
 
     # Refusals: exit 2 (usage) and 3 (input), no output file left behind.
     bad = os.path.join(work, "bad.msh")
