@@ -387,7 +387,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   parallel(ne, [&](int e) {
     const int f = Tc.edge_faces[e][0];
     for (int k = 1; k < p; ++k) {
-      const Eigen::Vector3d xi = edge_barycentric(coarse, Tc, e, Tc.edge_faces[e][0], line[k]);
+      const Eigen::Vector3d xi = edge_barycentric(coarse, Tc, e, f, line[k]);
       Eigen::Vector3d x0;
       const Eigen::Index r = static_cast<Eigen::Index>(e) * npe + k - 1;
       hm.edge_nodes.row(r) = place(f, xi, cfeat[e], edge_stats[e], x0).transpose();
@@ -457,10 +457,10 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
       if (!redo_edge[e]) return;
       Eigen::Vector3d n = Eigen::Vector3d::Zero();  // the mean of the edge's faces: conforming
       for (int g : Tc.edge_faces[e]) n += fn.row(g).transpose();
+      const int f = Tc.edge_faces[e][0];
       for (int k = 1; k < p; ++k) {
         const Eigen::Index r = static_cast<Eigen::Index>(e) * npe + k - 1;
-        resnap(hm.edge_nodes.row(r), Tc.edge_faces[e][0], edge_barycentric(coarse, Tc, e, Tc.edge_faces[e][0], line[k]),
-               edge_fit.row(r).transpose(), n);
+        resnap(hm.edge_nodes.row(r), f, edge_barycentric(coarse, Tc, e, f, line[k]), edge_fit.row(r).transpose(), n);
       }
     });
     if (npf > 0)

@@ -2,8 +2,6 @@
 
 #include "engine/core/topology.hpp"
 
-#include <numeric>
-
 namespace hocurve {
 
 int vertex_fans(const Mesh& m, const Topology& T, int v, std::vector<int>& fan) {
@@ -36,8 +34,6 @@ FanSplit split_vertex_fans(const Mesh& m) {
   FanSplit R;
   R.mesh = m;
   const int nv = m.num_vertices();
-  R.origin.resize(nv);
-  std::iota(R.origin.begin(), R.origin.end(), 0);
   const Topology T = build_topology(m.F, nv);
   std::vector<int> fan;
   for (int v = 0; v < nv; ++v) {
@@ -49,7 +45,6 @@ FanSplit split_vertex_fans(const Mesh& m) {
     R.mesh.V.conservativeResize(first + fans - 1, 3);
     for (int c = 1; c < fans; ++c) {
       R.mesh.V.row(first + c - 1) = m.V.row(v);
-      R.origin.push_back(v);
       R.pinned.push_back(first + c - 1);
     }
     auto [b, e] = T.faces_of(v);

@@ -11,8 +11,7 @@
 namespace hocurve {
 
 struct FanSplit {
-  Mesh mesh;                  ///< the input with one vertex per fan (faces, entities, groups kept)
-  std::vector<int> origin;    ///< per vertex of mesh: the input vertex it copies (identity if none split)
+  Mesh mesh;                  ///< the input with one vertex per fan (copies appended; faces, entities, groups kept)
   std::vector<int> pinned;    ///< vertices of mesh at a split point (the original and its copies)
   int split_vertices = 0;     ///< input vertices that had several fans
 };
