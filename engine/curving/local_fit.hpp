@@ -8,6 +8,7 @@
 #include "engine/curving/support_points.hpp"
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <vector>
 
 namespace hocurve {
@@ -50,9 +51,19 @@ struct FitOptions {
   /// screw and T20, their half-disc curvature estimates made P4 up to 10x worse.
   bool reference_torus = true;
   /// ... only from stencils of at least this many points: 4 per unknown of the curvature
-  /// estimate (5). P2 and P3 stencils are smaller and keep the plane: measured, their noisier
+  /// estimate (5). Smaller stencils (degree-2 and -3 fits) keep the plane: measured, their noisier
   /// references cost the observed order (jittered ellipsoid P3 3.59 with, 3.75 without).
   int reference_min_points = 20;
+  /// Surface fits have degree max(p, min_degree) for elements of order p (fit_degree()): the fit
+  /// models the data, the order only says where the nodes go on it. Degree-4 stencils also reach
+  /// reference_min_points. Measured (bench/accuracy.py, max error at h = 0.2 / 0.1 / 0.05, p at
+  /// degree p -> at degree 4): P2 sphere 3.0 / 2.9 / 4.0x lower, torus 3.4 / 1.7 / 1.4x, ellipsoid
+  /// 3.1 / 4.2 / 2.7x, capped cylinder 1.1 / 4.4 / 13x; P3 sphere 6.7 / 3.9 / 4.6x, torus 9.9 / 5.9 /
+  /// 7.6x, ellipsoid 1.3 / 1.8 / 2.5x, cylinder 1.6 / 6.8 / 9.7x; CAD screw and T20 P2 1.0-1.6x
+  /// lower, P3 within 1.25x but T20 d/20 2x higher. P2 and P3 then sit on the floor of nodes at their
+  /// closest exact points (within 4% at h = 0.025). Odd degrees one above p did worse (P2 on degree 3: sphere 2x worse;
+  /// P4 on degree 5: ellipsoid 2.5x better but T20 d/40 2x worse and the ellipsoid's order 4.5).
+  int min_degree = 4;
   /// Degree reduction (fitting.md 2.7): a degree-d block that changes by more than
   /// safeguard_tol (in units of h) and by >= 105 % of itself when the fit is truncated at
   /// degree d lowers the degree. Skipped when the stencil has >= safeguard_skip x #coefficients
@@ -88,6 +99,9 @@ struct FitOptions {
 
 /// Number of coefficients of the interpolatory basis u^j v^k, 1 <= j+k <= p.
 inline int fit_coefficients(int p) { return (p + 1) * (p + 2) / 2 - 1; }
+
+/// Degree of the surface and curve fits for elements of order p (FitOptions::min_degree).
+inline int fit_degree(int p, const FitOptions& opt) { return p < 2 ? p : std::max(p, opt.min_degree); }
 
 /// A height-function fit over the local frame (o; t1, t2, n). Coefficients c multiply the
 /// monomials (u/h)^j (v/h)^k ordered by degree, then by descending j, and give height / h.

@@ -109,10 +109,11 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     const Wedges W = build_wedges(mesh, T, R.features.edge_feature);
     R.wedges = W.num_wedges();
     if (p >= 2) {
-      R.fits = fit_wedges(mesh, T, W, p, R.support_used ? &support : nullptr, opt.fit);
-      R.band_wedges = refit_band_wedges(mesh, T, W, R.features, p, opt.fit, R.fits.fits);
+      const int d = fit_degree(p, opt.fit);
+      R.fits = fit_wedges(mesh, T, W, d, R.support_used ? &support : nullptr, opt.fit);
+      R.band_wedges = refit_band_wedges(mesh, T, W, R.features, d, opt.fit, R.fits.fits);
       progress("curve fits", 0.6);
-      R.curve_fits = fit_feature_curves(mesh, T, R.features, p, opt.fit);
+      R.curve_fits = fit_feature_curves(mesh, T, R.features, d, opt.fit);
     } else {
       R.fits.fits.resize(W.num_wedges());
       R.fits.degree_histogram.assign(2, 0);

@@ -96,12 +96,39 @@ const Dist sphere = [](const Eigen::Vector3d& x) { return sphere_distance(x); };
 const Dist torus = [](const Eigen::Vector3d& x) { return torus_distance(x, 1.0, 0.4); };
 const Dist ellipsoid = [](const Eigen::Vector3d& x) { return ellipsoid_distance(x, 1.0, 0.7, 0.5); };
 
-/// Observed order >= p+1 (a 0.3 allowance for pre-asymptotic noise between only 3 levels).
-void check_rates(const std::vector<Row>& rows, const std::vector<int>& ps) {
+using Closest = std::function<Eigen::Vector3d(const Eigen::Vector3d&)>;
+
+/// Error of m's order-p curving with every high-order node moved to its closest point on the exact
+/// surface: the floor of any placement along the normal (the element's interpolation error).
+double exact_node_error(const Mesh& m, int p, const Closest& closest, const Dist& dist) {
+  CurveOptions o;
+  o.order = p;
+  HighOrderMesh hm = curve_mesh(m, o).mesh;
+  for (Eigen::MatrixXd* X : {&hm.edge_nodes, &hm.face_nodes})
+    for (Eigen::Index i = 0; i < X->rows(); ++i) X->row(i) = closest(X->row(i).transpose()).transpose();
+  return surface_error(hm, dist);
+}
+
+/// Observed order >= p+1 (a 0.3 allowance for pre-asymptotic noise between only 3 levels). With
+/// floors (exact_node_error on the finest mesh, per p): or within 25% of the floor, where the
+/// meshes themselves converge slower (jittered elements: the interpolant's constant varies by level).
+void check_rates(const std::vector<Row>& rows, const std::vector<int>& ps, const std::vector<double>& floors = {}) {
   for (size_t k = 0; k < ps.size(); ++k) {
-    INFO("P" << ps[k] << " rate " << rate(rows, k));
-    CHECK(rate(rows, k) >= ps[k] + 1 - 0.3);
+    const double e = rows.back().err[k], f = floors.empty() ? 0.0 : floors[k];
+    INFO("P" << ps[k] << " rate " << rate(rows, k) << ", finest " << e << ", exact-node floor " << f);
+    CHECK((rate(rows, k) >= ps[k] + 1 - 0.3 || e <= 1.25 * f));
   }
+}
+
+/// exact_node_error of the finest mesh for every p, printed.
+std::vector<double> floors(const char* name, const Mesh& m, const std::vector<int>& ps, const Closest& closest,
+                           const Dist& dist) {
+  std::vector<double> f;
+  for (int p : ps) f.push_back(exact_node_error(m, p, closest, dist));
+  std::printf("%s, finest mesh, nodes at their closest points:", name);
+  for (size_t k = 0; k < ps.size(); ++k) std::printf(" P%d %.3e", ps[k], f[k]);
+  std::printf("\n");
+  return f;
 }
 
 }  // namespace
@@ -155,8 +182,18 @@ TEST_CASE("jittered sphere and ellipsoid keep the order") {
     e.push_back(ellipsoid_mesh(l, 1, 0.7, 0.5));
     jitter_on_surface(e.back(), 0.25, 7, [](const Eigen::Vector3d& x) { return ellipsoid_closest(x, 1, 0.7, 0.5); });
   }
-  check_rates(table("jittered icosphere", s, ps, sphere), ps);
-  check_rates(table("jittered ellipsoid", e, ps, ellipsoid), ps);
+  const Closest sc = [](const Eigen::Vector3d& x) { return sphere_closest(x); };
+  const Closest ec = [](const Eigen::Vector3d& x) { return ellipsoid_closest(x, 1, 0.7, 0.5); };
+  const auto srows = table("jittered icosphere", s, ps, sphere), erows = table("jittered ellipsoid", e, ps, ellipsoid);
+  const auto sf = floors("jittered icosphere", s.back(), ps, sc, sphere), ef = floors("jittered ellipsoid", e.back(), ps, ec, ellipsoid);
+  check_rates(srows, ps, sf);
+  check_rates(erows, ps, ef);
+  // P2 and P3 nodes come from degree-4 fits (FitOptions::min_degree): the element's interpolation,
+  // not the fit, limits them (degree-p fits: P3 12.7x / 5x above the floor, P2 2.6x / 1.6x).
+  for (size_t k = 0; k < 2; ++k) {
+    CHECK(srows.back().err[k] <= 1.25 * sf[k]);
+    CHECK(erows.back().err[k] <= 1.25 * ef[k]);
+  }
 }
 
 TEST_CASE("P6 converges and beats P4 on fine meshes") {
