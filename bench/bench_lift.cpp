@@ -63,6 +63,7 @@ LiftOptions lift_options(const DecimateOptions& dopt, int p) {
 /// BENCH_LIFT_DEFER overrides DecimateOptions::defer_deviation (0: plain quadric order).
 Run coarsen(const Mesh& fine, DecimateOptions dopt, int p) {
   if (const char* e = std::getenv("BENCH_LIFT_DEFER")) dopt.defer_deviation = std::atof(e);
+  if (const char* e = std::getenv("BENCH_LIFT_MAXDEV")) dopt.max_deviation = std::atof(e);
   Run r;
   const double t0 = now();
   r.dec = decimate(fine, dopt);

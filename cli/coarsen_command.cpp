@@ -30,6 +30,7 @@ const std::vector<OptionSpec> kCoarsenOptions = {
     {"stats", true, "write every stage's figures and timings as JSON to this file"},
     {"threads", true, "worker threads (default: all cores)"},
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
+    {"max-deviation", true, "refuse collapses moving a dense vertex > F x diagonal off the coarse faces (default 0.015; 0: off)"},
     {"progress", false, "print progress as JSON lines on stdout"},
     {"help", false, "show this help", 'h'},
 };
@@ -37,7 +38,8 @@ const std::vector<OptionSpec> kCoarsenOptions = {
 const char* kCoarsenUsage =
     "usage: hocurve coarsen INPUT -o OUTPUT.msh --order P (--faces N | --ratio R)\n"
     "                       [--nodes equispaced|lobatto] [--format msh41|msh22] [--binary]\n"
-    "                       [--stats STATS.json] [--threads N] [--feature-angle DEG] [--progress]\n"
+    "                       [--stats STATS.json] [--threads N] [--feature-angle DEG]\n"
+    "                       [--max-deviation F] [--progress]\n"
     "Decimates a linear triangle surface mesh to N triangles (or R x its count), keeping feature\n"
     "curves, and curves the coarse triangles to order P so that they stay on the dense surface.\n";
 
@@ -58,7 +60,8 @@ nlohmann::json decimation_json(const DecimateResult& d, double seconds) {
           {"deferred", d.deferred},
           {"rejected",
            {{"total", r.total()}, {"link", r.link}, {"feature", r.feature}, {"boundary", r.boundary},
-            {"valence", r.valence}, {"fold", r.fold}, {"sliver", r.sliver}, {"flatten", r.flatten}}},
+            {"valence", r.valence}, {"fold", r.fold}, {"sliver", r.sliver}, {"flatten", r.flatten},
+            {"deviation", r.deviation}}},
           {"feature_edges", d.feature_edges},
           {"corners", d.corners},
           {"map", {{"collapse_records", d.map.num_collapses()}, {"tracked_vertices", d.map.vertex_coarse_face.size()}}},
@@ -129,6 +132,7 @@ int run_coarsen(int argc, char** argv) {
   else dopt.target_ratio = a.get_double("ratio", 0.04, 0.0, 1.0);
   if (!(dopt.target_faces > 0 || dopt.target_ratio > 0)) throw UsageError("--ratio must be in (0, 1]");
   dopt.feature_angle_deg = a.get_double("feature-angle", dopt.feature_angle_deg, 0.0, 180.0);
+  dopt.max_deviation = a.get_double("max-deviation", dopt.max_deviation, 0.0, 1.0);
   LiftOptions lopt;
   lopt.order = static_cast<int>(a.get_int("order", 4, 2, 6));
   lopt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
@@ -155,6 +159,7 @@ int run_coarsen(int argc, char** argv) {
   const FanSplit split = split_vertex_fans(in.mesh);
   dopt.pinned_vertices = split.pinned;
   const DecimateResult dec = decimate(split.mesh, dopt);
+  if (!dec.reached_target) std::cerr << "hocurve coarsen: warning: " << dec.message << "\n";
   const double t2 = now_seconds();
   const LiftResult lift = lift_coarse(split.mesh, dec, lopt);
   const double t3 = now_seconds();

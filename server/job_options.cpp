@@ -78,11 +78,12 @@ nlohmann::json options_from_query(const std::multimap<std::string, std::string>&
 nlohmann::json normalise_options(const nlohmann::json& raw) {
   if (!raw.is_object())
     throw ApiError(400, "invalid-options", "options must be a JSON object, got " + std::string(raw.type_name()));
-  static const std::set<std::string> known = {"mode", "order", "nodes", "format", "binary", "faces", "ratio"};
+  static const std::set<std::string> known = {"mode",  "order", "nodes", "format",
+                                              "binary", "faces", "ratio", "max_deviation"};
   Errors err;
   for (auto& [k, v] : raw.items())
     if (!known.count(k))
-      err.add(k, "unknown option '" + k + "' (known: mode, order, nodes, format, binary, faces, ratio)");
+      err.add(k, "unknown option '" + k + "' (known: mode, order, nodes, format, binary, faces, ratio, max_deviation)");
 
   nlohmann::json out = nlohmann::json::object();
   std::string mode = "curve";
@@ -117,8 +118,14 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
         err.add("ratio", "ratio must be a number in (0, 1], got " + as_text(raw["ratio"]));
       out["ratio"] = ratio;
     }
+    if (raw.contains("max_deviation")) {
+      double dev = 0;
+      if (!parse_double(raw["max_deviation"], dev) || !(dev >= 0 && dev <= 1))
+        err.add("max_deviation", "max_deviation must be a number in [0, 1] (0: no limit), got " + as_text(raw["max_deviation"]));
+      out["max_deviation"] = dev;
+    }
   } else {
-    for (const char* k : {"faces", "ratio"})
+    for (const char* k : {"faces", "ratio", "max_deviation"})
       if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=coarsen only");
     std::string nodes = raw.contains("nodes") ? as_text(raw["nodes"]) : "lobatto";
     if (nodes != "lobatto" && nodes != "equispaced")
@@ -151,6 +158,11 @@ std::vector<std::string> worker_argv(const std::string& program, const nlohmann:
       char buf[64];
       std::snprintf(buf, sizeof buf, "%.17g", o["ratio"].get<double>());
       a.insert(a.end(), {"--ratio", buf});
+    }
+    if (o.contains("max_deviation")) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.17g", o["max_deviation"].get<double>());
+      a.insert(a.end(), {"--max-deviation", buf});
     }
   } else {
     a.insert(a.end(), {"--nodes", o.value("nodes", "lobatto"), "--format", o.value("format", "msh41")});

@@ -225,6 +225,7 @@ def main(argv=None):
     s.add_argument("--binary", action="store_true")
     s.add_argument("--faces", type=int)
     s.add_argument("--ratio", type=float)
+    s.add_argument("--max-deviation", type=float, dest="max_deviation")
     s.add_argument("--idempotency-key")
     s.add_argument("--wait", action="store_true", help="wait with a progress bar")
     s.add_argument("-o", "--output", help="with --wait: download the result here")
@@ -247,7 +248,7 @@ def main(argv=None):
     out = sys.stdout
     try:
         if args.cmd == "submit":
-            opts = {k: getattr(args, k) for k in ("mode", "order", "nodes", "format", "faces", "ratio")
+            opts = {k: getattr(args, k) for k in ("mode", "order", "nodes", "format", "faces", "ratio", "max_deviation")
                     if getattr(args, k) is not None}
             if args.binary:
                 opts["binary"] = True

@@ -1,9 +1,9 @@
 #include "engine/coarse/decimate.hpp"
 
-#include "engine/coarse/vertex_fans.hpp"
-
+#include "engine/coarse/dense_surface.hpp"
 #include "engine/coarse/flatten.hpp"
 #include "engine/coarse/quadric.hpp"
+#include "engine/coarse/surface_distance.hpp"
 #include "engine/coarse/vertex_fans.hpp"
 #include "engine/core/error.hpp"
 #include "engine/core/topology.hpp"
@@ -11,6 +11,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <limits>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -161,7 +162,7 @@ struct Entry {
   }
 };
 
-enum class Reason { ok, link, feature, boundary, valence, fold, sliver, flatten, deferred };
+enum class Reason { ok, link, feature, boundary, valence, fold, sliver, flatten, deviation, deferred };
 
 struct Plan {
   Reason reason = Reason::ok;
@@ -187,7 +188,9 @@ struct Decimator {
   /// Collapses that would leave a tracked dense vertex (positions dense_V) further than this from
   /// the straight coarse surface are deferred (0: never).
   double defer_distance = 0;
+  double max_distance = 0;  ///< ... refused beyond this (0: never)
   const Eigen::MatrixXd* dense_V = nullptr;
+  TriangleGrid dense_grid;  ///< the input's triangles, for the coarse -> dense side of max_distance
 
   // tracking of fine vertices
   bool track = false;
@@ -373,20 +376,44 @@ Reason Decimator::check_and_collapse(const Plan& P, bool may_defer, double& devi
       }
     t_track += seconds_since(t0);
   }
-  // Their largest distance from the straight faces after the collapse.
-  if (track && may_defer && defer_distance > 0) {
+  // Their largest distance from the straight faces after the collapse: to their landing points for
+  // the deferral; to the new faces for max_distance (the map's tangential slide, across flat
+  // regions or over feature curves, is no deviation of the surface).
+  bool too_far = false;
+  if (track && ((may_defer && defer_distance > 0) || max_distance > 0)) {
     const int post = patch.post_reuses_survivor_uv ? 0 : static_cast<int>(patch.X.size());
+    auto corner = [&](int t, int j) -> const Eigen::Vector3d& {
+      const int l = post_tris[t][j];
+      return l == post ? P.p : patch.X[l];
+    };
     double dev = 0;
+    Eigen::Vector3d bary;
     for (const Landing& L : landings) {
+      const Eigen::Vector3d q = dense_V->row(L.pt).transpose();
       Eigen::Vector3d x = Eigen::Vector3d::Zero();
-      for (int j = 0; j < 3; ++j) {
-        const int l = post_tris[L.tri][j];
-        x += L.bary[j] * (l == post ? P.p : patch.X[l]);
+      for (int j = 0; j < 3; ++j) x += L.bary[j] * corner(L.tri, j);
+      const double d = (x - q).norm();
+      dev = std::max(dev, d);
+      if (max_distance > 0 && d > max_distance && !too_far) {  // the landing point bounds the distance
+        double dmin = std::numeric_limits<double>::infinity();
+        for (size_t t = 0; t < post_tris.size(); ++t)
+          dmin = std::min(dmin, (closest_point_on_triangle(q, corner(t, 0), corner(t, 1), corner(t, 2), bary) - q).norm());
+        too_far = dmin > max_distance;
       }
-      dev = std::max(dev, (x - dense_V->row(L.pt).transpose()).norm());
     }
+    // ... and the other way: the new vertex, the midpoints of its edges and the new faces' centroids
+    // must stay near the input (the other vertices and edges were checked when they were made).
+    if (max_distance > 0 && !too_far) too_far = !grid_within(dense_grid, P.p, max_distance);
+    for (size_t t = 0; t < post_tris.size() && max_distance > 0 && !too_far; ++t)
+      for (int j = 0; j < 3 && !too_far; ++j) {
+        if (post_tris[t][j] != post) continue;
+        const Eigen::Vector3d &a = corner(t, (j + 1) % 3), &b = corner(t, (j + 2) % 3);
+        too_far = !grid_within(dense_grid, 0.5 * (P.p + a), max_distance) ||
+                  !grid_within(dense_grid, (P.p + a + b) / 3, max_distance);
+      }
     deviation = dev;
-    if (dev > defer_distance) return Reason::deferred;
+    if (too_far) return Reason::deviation;
+    if (may_defer && defer_distance > 0 && dev > defer_distance) return Reason::deferred;
   }
 
   // --- accepted: record, move tracked points, update connectivity ---
@@ -467,9 +494,12 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
   }
 
   Decimator D(opt);
-  if (opt.build_map && opt.defer_deviation > 0) {
-    D.defer_distance = opt.defer_deviation * (fine.V.colwise().maxCoeff() - fine.V.colwise().minCoeff()).norm();
+  if (opt.build_map && (opt.defer_deviation > 0 || opt.max_deviation > 0)) {
+    const double diag = (fine.V.colwise().maxCoeff() - fine.V.colwise().minCoeff()).norm();
+    D.defer_distance = opt.defer_deviation * diag;
+    D.max_distance = opt.max_deviation * diag;
     D.dense_V = &fine.V;
+    if (D.max_distance > 0) D.dense_grid = build_triangle_grid(fine);
   }
   D.cos_fold = std::cos(opt.max_normal_change_deg * std::numbers::pi / 180);
   D.cos_min_angle = std::cos(opt.min_angle_deg * std::numbers::pi / 180);
@@ -563,6 +593,7 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
       case Reason::fold: ++R.rejected.fold; break;
       case Reason::sliver: ++R.rejected.sliver; break;
       case Reason::flatten: ++R.rejected.flatten; break;
+      case Reason::deviation: ++R.rejected.deviation; break;
     }
     D.rejected.insert(edge_key(en.a, en.b));
   }
@@ -601,7 +632,8 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
               " refused collapses (link " + std::to_string(R.rejected.link) + ", feature " +
               std::to_string(R.rejected.feature) + ", boundary " + std::to_string(R.rejected.boundary) +
               ", valence " + std::to_string(R.rejected.valence) + ", fold " + std::to_string(R.rejected.fold) +
-              ", sliver " + std::to_string(R.rejected.sliver) + ", flatten " + std::to_string(R.rejected.flatten) + ")";
+              ", sliver " + std::to_string(R.rejected.sliver) + ", flatten " + std::to_string(R.rejected.flatten) +
+              ", deviation " + std::to_string(R.rejected.deviation) + ")";
 
   if (opt.build_map) {
     CoarseMap& M = R.map;

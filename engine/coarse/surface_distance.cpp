@@ -63,7 +63,7 @@ TriangleGrid build_triangle_grid(const Mesh& m, double cells_per_face) {
   return G;
 }
 
-double grid_distance(const TriangleGrid& G, const Eigen::Vector3d& x, int* face) {
+double grid_search(const TriangleGrid& G, const Eigen::Vector3d& x, double max_r, double stop_below, int* face) {
   const Mesh& m = *G.mesh;
   Eigen::Vector3i c;
   for (int k = 0; k < 3; ++k)
@@ -88,15 +88,27 @@ double grid_distance(const TriangleGrid& G, const Eigen::Vector3d& x, int* face)
                                           m.V.row(m.F(f, 2)).transpose(), bc);
             const double d = (q - x).norm();
             if (d < best) best = d, bf = f;
+            if (best < stop_below) {
+              if (face) *face = bf;
+              return best;
+            }
           }
         }
       }
     }
     // Cells beyond shell r are at least r cells away from x.
-    if (best <= r * G.cell) break;
+    if (best <= r * G.cell || r * G.cell > max_r) break;
   }
   if (face) *face = bf;
   return best;
+}
+
+double grid_distance(const TriangleGrid& G, const Eigen::Vector3d& x, int* face) {
+  return grid_search(G, x, std::numeric_limits<double>::infinity(), -1, face);
+}
+
+bool grid_within(const TriangleGrid& G, const Eigen::Vector3d& x, double r) {
+  return grid_search(G, x, r, r, nullptr) <= r;
 }
 
 Mesh tessellate(const HighOrderMesh& hm, int n) {

@@ -26,6 +26,10 @@ TriangleGrid build_triangle_grid(const Mesh& mesh, double cells_per_face = 1.0);
 /// Distance from x to the closest triangle of the grid's mesh (face index in *face if given).
 double grid_distance(const TriangleGrid& grid, const Eigen::Vector3d& x, int* face = nullptr);
 
+/// Whether a triangle of the grid's mesh is within distance r of x (searches only that far and
+/// stops at the first one found).
+bool grid_within(const TriangleGrid& grid, const Eigen::Vector3d& x, double r);
+
 /// Linear triangles through an n x n sub-lattice of every curved element (n^2 per element).
 Mesh tessellate(const HighOrderMesh& hm, int n);
 

@@ -135,12 +135,31 @@ def main(argv):
               and n == s3["decimation"]["faces"] and n < 202,
               "non-manifold vertices: 2 split, %d P4 elements of 202 read back, 0 invalid" % n)
 
+    # --max-deviation: bunny at 2% would cut the ears off; the limit stops early and says so.
+    bunny = os.path.join(shared, "meshes", "bunny_closed.obj")
+    counts = {}
+    for dev in ("0.015", "0"):
+        o, st = os.path.join(work, "b%s.msh" % dev), os.path.join(work, "b%s.json" % dev)
+        r = subprocess.run([hoc, "coarsen", bunny, "-o", o, "--order", "4", "--ratio", "0.02", "--max-deviation", dev,
+                            "--stats", st], capture_output=True, text=True, timeout=300)
+        check(r.returncode == 0, "bunny 2%%, --max-deviation %s: exit 0 (%s)" % (dev, r.stderr.strip()))
+        if r.returncode == 0:
+            d = json.load(open(st))["decimation"]
+            counts[dev] = (d["faces"], d["target_faces"], d["rejected"]["deviation"], d["reached_target"], r.stderr)
+    if len(counts) == 2:
+        f, t, nd, reached, err = counts["0.015"]
+        check(not reached and f > t and nd > 0 and "warning: target not reached" in err and "deviation %d" % nd in err,
+              "limit 0.015: stopped at %d faces (target %d), %d refused for deviation, warned on stderr" % (f, t, nd))
+        f, t, nd, reached, err = counts["0"]
+        check(reached and f <= t and nd == 0 and err == "", "no limit: %d faces (target %d), no warning" % (f, t))
+
     # Refusals: exit 2 (usage) and 3 (input), no output file left behind.
     bad = os.path.join(work, "bad.msh")
     for args, code, what in [(["--order", "4"], 2, "neither --faces nor --ratio"),
                              (["--order", "4", "--faces", "10", "--ratio", "0.1"], 2, "both --faces and --ratio"),
                              (["--order", "7", "--faces", "100"], 2, "order 7"),
-                             (["--order", "1", "--faces", "100"], 2, "order 1")]:
+                             (["--order", "1", "--faces", "100"], 2, "order 1"),
+                             (["--order", "4", "--faces", "100", "--max-deviation", "-0.1"], 2, "negative deviation")]:
         r = subprocess.run([hoc, "coarsen", src, "-o", bad] + args, capture_output=True, text=True, timeout=60)
         check(r.returncode == code and not os.path.exists(bad), "%s: exit %d, no output" % (what, r.returncode))
     empty = os.path.join(work, "empty.obj")

@@ -51,6 +51,8 @@ TEST_CASE("options: defaults are filled and strings from a query are typed") {
   CHECK(o["binary"] == true);
   o = normalise_options({{"mode", "coarsen"}, {"ratio", "0.05"}, {"order", 4}});
   CHECK(o == json({{"mode", "coarsen"}, {"order", 4}, {"ratio", 0.05}}));
+  o = normalise_options({{"mode", "coarsen"}, {"faces", 100}, {"max_deviation", "0"}});
+  CHECK(o["max_deviation"] == 0.0);
 }
 
 TEST_CASE("options: every offending key is reported with a JSON pointer") {
@@ -77,6 +79,8 @@ TEST_CASE("options: every offending key is reported with a JSON pointer") {
   CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"faces", 10}, {"binary", 1}}), ApiError);  // curve-only key
   CHECK_THROWS_AS(normalise_options({{"faces", 10}}), ApiError);                                      // coarsen-only key
   CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"ratio", 0}}), ApiError);
+  CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"ratio", 0.1}, {"max_deviation", -1}}), ApiError);
+  CHECK_THROWS_AS(normalise_options({{"max_deviation", 0.01}}), ApiError);  // coarsen-only key
   CHECK_THROWS_AS(normalise_options(json::array()), ApiError);
   CHECK_THROWS_AS(options_from_query({{"order", "3"}, {"order", "4"}}), ApiError);
 }
@@ -89,6 +93,9 @@ TEST_CASE("worker command line follows the CLI contract") {
   a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"faces", 500}, {"order", 2}}), "i", "o", "s", 1);
   CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "2", "--faces", "500", "--stats", "s",
                                       "--progress"});
+  a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"ratio", 0.5}, {"max_deviation", 0.02}}), "i", "o", "s", 1);
+  CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "3", "--ratio", "0.5",
+                                      "--max-deviation", "0.02", "--stats", "s", "--progress"});
 }
 
 TEST_CASE("format sniffing and the upload-time binary STL count check") {
