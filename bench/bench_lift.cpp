@@ -209,6 +209,28 @@ void real(const std::string& file, double ratio, int p) {
     std::printf("    %lld nodes, %lld curve nodes, %lld rays fell back to the closest point\n", U.nodes, U.curve_nodes,
                 U.ray_failed);
     diagnose_invalid(U.mesh, Uf.mesh);
+    // Where the curved surface is furthest from the input: the worst node, and how far the
+    // snap moved it from its fit-blend position.
+    const TriangleGrid G = build_triangle_grid(fine);
+    double worst = 0;
+    int wf = -1;
+    for (int f = 0; f < L.mesh.num_faces(); ++f) {
+      const Eigen::MatrixXd X = element_nodes(L.mesh, f);
+      for (Eigen::Index i = 0; i < X.rows(); ++i) {
+        const double d = grid_distance(G, X.row(i).transpose());
+        if (d > worst) worst = d, wf = f;
+      }
+    }
+    if (wf >= 0) {
+      const Eigen::MatrixXd X = element_nodes(L.mesh, wf), Xf = element_nodes(Uf.mesh, wf);
+      std::printf("    worst node: element %d, %.3f%% off the input; its nodes (distance %% / snap move %%):", wf,
+                  100 * worst / diag);
+      for (Eigen::Index i = 0; i < X.rows(); ++i)
+        std::printf(" %.2f/%.2f", 100 * grid_distance(G, X.row(i).transpose()) / diag, 100 * (X.row(i) - Xf.row(i)).norm() / diag);
+      std::printf("\n    corners:");
+      for (int j = 0; j < 3; ++j) std::printf(" (%.4g %.4g %.4g)", X(j, 0), X(j, 1), X(j, 2));
+      std::printf("\n");
+    }
   }
 }
 
