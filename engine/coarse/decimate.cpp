@@ -11,9 +11,9 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <limits>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <queue>
 #include <string>

@@ -60,9 +60,10 @@ struct FitOptions {
   /// degree p -> at degree 4): P2 sphere 3.0 / 2.9 / 4.0x lower, torus 3.4 / 1.7 / 1.4x, ellipsoid
   /// 3.1 / 4.2 / 2.7x, capped cylinder 1.1 / 4.4 / 13x; P3 sphere 6.7 / 3.9 / 4.6x, torus 9.9 / 5.9 /
   /// 7.6x, ellipsoid 1.3 / 1.8 / 2.5x, cylinder 1.6 / 6.8 / 9.7x; CAD screw and T20 P2 1.0-1.6x
-  /// lower, P3 within 1.25x but T20 d/20 2x higher. P2 and P3 then sit on the floor of nodes at their
-  /// closest exact points (within 4% at h = 0.025). Odd degrees one above p did worse (P2 on degree 3: sphere 2x worse;
-  /// P4 on degree 5: ellipsoid 2.5x better but T20 d/40 2x worse and the ellipsoid's order 4.5).
+  /// lower, P3 within 1.25x but T20 d/20 2x higher. P2 and P3 then sit on the floor of nodes at
+  /// their closest exact points (within 4% at h = 0.025). Odd degrees one above p did worse (P2 on
+  /// degree 3: sphere 2x worse; P4 on degree 5: ellipsoid 2.5x better but T20 d/40 2x worse and the
+  /// ellipsoid's order 4.5).
   int min_degree = 4;
   /// Degree reduction (fitting.md 2.7): a degree-d block that changes by more than
   /// safeguard_tol (in units of h) and by >= 105 % of itself when the fit is truncated at

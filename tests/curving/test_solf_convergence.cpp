@@ -185,7 +185,8 @@ TEST_CASE("jittered sphere and ellipsoid keep the order") {
   const Closest sc = [](const Eigen::Vector3d& x) { return sphere_closest(x); };
   const Closest ec = [](const Eigen::Vector3d& x) { return ellipsoid_closest(x, 1, 0.7, 0.5); };
   const auto srows = table("jittered icosphere", s, ps, sphere), erows = table("jittered ellipsoid", e, ps, ellipsoid);
-  const auto sf = floors("jittered icosphere", s.back(), ps, sc, sphere), ef = floors("jittered ellipsoid", e.back(), ps, ec, ellipsoid);
+  const auto sf = floors("jittered icosphere", s.back(), ps, sc, sphere);
+  const auto ef = floors("jittered ellipsoid", e.back(), ps, ec, ellipsoid);
   check_rates(srows, ps, sf);
   check_rates(erows, ps, ef);
   // P2 and P3 nodes come from degree-4 fits (FitOptions::min_degree): the element's interpolation,
