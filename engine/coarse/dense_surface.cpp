@@ -1,5 +1,6 @@
 #include "engine/coarse/dense_surface.hpp"
 
+#include "engine/curving/band_fit.hpp"
 #include "engine/curving/place_nodes.hpp"
 #include "engine/curving/support_points.hpp"
 #include "engine/curving/uniformity.hpp"
@@ -25,6 +26,7 @@ DenseSurface build_dense_surface(const Mesh& fine, const DenseSurfaceOptions& op
     S.support_used = true;
   }
   S.fits = fit_wedges(fine, S.T, S.W, opt.degree, S.support_used ? &support : nullptr, opt.fit);
+  refit_band_wedges(fine, S.T, S.W, S.features, opt.degree, opt.fit, S.fits.fits);  // as curve_mesh does
   S.curves = fit_feature_curves(fine, S.T, S.features, opt.degree, opt.fit);
   S.max_lift = opt.max_lift;
   S.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

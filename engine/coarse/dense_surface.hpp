@@ -1,6 +1,6 @@
-// The smooth surface the dense (fine) mesh defines: its SOLF wedge fits and feature-curve fits,
-// and closest-point projection onto it from a nearby start face. Coarse lifting snaps its
-// high-order nodes onto this surface.
+// The smooth surface the dense (fine) mesh defines: its SOLF wedge fits (bands refitted as ruled
+// surfaces, as curve_mesh does) and feature-curve fits, and closest-point projection onto it from
+// a nearby start face. Coarse lifting snaps its high-order nodes onto this surface.
 #pragma once
 #include "engine/core/mesh.hpp"
 #include "engine/core/topology.hpp"
