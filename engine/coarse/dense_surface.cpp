@@ -27,6 +27,7 @@ DenseSurface build_dense_surface(const Mesh& fine, const DenseSurfaceOptions& op
   }
   S.fits = fit_wedges(fine, S.T, S.W, opt.degree, S.support_used ? &support : nullptr, opt.fit);
   refit_band_wedges(fine, S.T, S.W, S.features, opt.degree, opt.fit, S.fits.fits);  // as curve_mesh does
+  S.planar_anchor = planar_patch_faces(fine, S.T, opt.planar);
   S.curves = fit_feature_curves(fine, S.T, S.features, opt.degree, opt.fit);
   S.max_lift = opt.max_lift;
   S.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -106,6 +107,13 @@ double mean_edge(const Mesh& m, int f) {
   return ((a - b).norm() + (b - c).norm() + (c - a).norm()) / 3;
 }
 
+/// The fitted surface's point for the point `linear` (barycentric bc) of dense face f: the capped
+/// lift of the fits' blend, or linear itself on a flat CAD face (planar_patch_faces).
+Eigen::Vector3d surface_point(const DenseSurface& S, int f, const Eigen::Vector3d& bc, const Eigen::Vector3d& linear) {
+  if (!S.planar_anchor.empty() && S.planar_anchor[f] >= 0) return linear;
+  return capped_lift(linear, blend_point(*S.mesh, S.W, S.fits.fits, f, bc), mean_edge(*S.mesh, f), S.max_lift);
+}
+
 }  // namespace
 
 DenseProjection project_to_dense_surface(const DenseSurface& S, int f, const Eigen::Vector3d& x, int max_steps) {
@@ -135,7 +143,7 @@ DenseProjection project_to_dense_surface(const DenseSurface& S, int f, const Eig
   P.face = f;
   P.bary = bc;
   P.linear = q;
-  P.lifted = capped_lift(q, blend_point(m, S.W, S.fits.fits, f, bc), mean_edge(m, f), S.max_lift);
+  P.lifted = surface_point(S, f, bc, q);
   return P;
 }
 
@@ -167,7 +175,7 @@ DenseProjection project_along_dense_surface(const DenseSurface& S, int f, const 
       P.face = f;
       P.bary = bc;
       P.linear = bc[0] * a + bc[1] * b + bc[2] * c;
-      P.lifted = capped_lift(P.linear, blend_point(m, S.W, S.fits.fits, f, bc), mean_edge(m, f), S.max_lift);
+      P.lifted = surface_point(S, f, bc, P.linear);
       ok = true;
       return P;
     }

@@ -4,6 +4,7 @@
 #pragma once
 #include "engine/core/mesh.hpp"
 #include "engine/core/topology.hpp"
+#include "engine/curving/planar_patches.hpp"
 #include "engine/curving/curve_fit.hpp"
 #include "engine/curving/features.hpp"
 #include "engine/curving/local_fit.hpp"
@@ -22,6 +23,7 @@ struct DenseSurfaceOptions {
   /// longer lifts are scaled down to it. Smooth fits lift by ~h^2 curvature / 8 (0.006 h on a
   /// 12k-triangle sphere); on scans, one-sided fits at noisy creases overshoot up to 0.3 h.
   double max_lift = 0.1;
+  PlanarPatchOptions planar;  ///< flat CAD faces stay flat, as in curve_mesh
 };
 
 /// The dense mesh with its topology, features, wedges and fits (everything needed to evaluate
@@ -33,6 +35,7 @@ struct DenseSurface {
   Wedges W;
   FitResult fits;
   CurveFitResult curves;
+  std::vector<int> planar_anchor;  ///< per face: planar_patch_faces() (>= 0: the face stays flat)
   bool support_used = false;
   double max_lift = 0.1;
   double seconds = 0;

@@ -4,6 +4,7 @@
 #include "engine/core/topology.hpp"
 #include "engine/curving/band_fit.hpp"
 #include "engine/curving/place_nodes.hpp"
+#include "engine/curving/planar_patches.hpp"
 #include "engine/curving/stencil.hpp"
 
 #include <chrono>
@@ -124,6 +125,7 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
                                     R.curve_fits.fits.empty() ? nullptr : &R.curve_fits, p,
                                     opt.distribution);
     R.mesh = std::move(P.mesh);
+    R.planar = flatten_planar_patches(mesh, T, R.mesh, opt.planar);
     R.curve_edges = P.curve_edges;
     R.placement_seconds = P.seconds;
   }

@@ -7,6 +7,7 @@
 #include "engine/curving/distance_field.hpp"
 #include "engine/curving/features.hpp"
 #include "engine/curving/local_fit.hpp"
+#include "engine/curving/planar_patches.hpp"
 #include "engine/curving/support_points.hpp"
 #include "engine/curving/uniformity.hpp"
 #include "engine/highorder/high_order_mesh.hpp"
@@ -29,6 +30,7 @@ struct CurveOptions {
   UniformityOptions uniformity;
   SupportOptions support;
   FitOptions fit;
+  PlanarPatchOptions planar;                       ///< flat CAD faces keep their nodes on their plane
   ValidityOptions validity;
   Tristate use_support = Tristate::Auto;
   bool repair = true;                              ///< run repair_validity (else only check)
@@ -63,6 +65,7 @@ struct CurveResult {
   FitResult fits;                 ///< per-wedge fits (the fits vector itself is kept for callers)
   CurveFitResult curve_fits;
   long long curve_edges = 0;
+  PlanarPatchResult planar;
   double placement_seconds = 0;
   ValidityReport validity;
   double validity_seconds = 0;

@@ -39,7 +39,11 @@ nlohmann::json stats_json(const CurveResult& r) {
                {"seconds", r.fits.seconds}};
   j["curve_fits"] = {{"fitted", r.curve_fits.fitted}, {"downgraded", r.curve_fits.downgraded},
                      {"seconds", r.curve_fits.seconds}};
-  j["placement"] = {{"curve_edges", r.curve_edges}, {"seconds", r.placement_seconds}};
+  j["placement"] = {{"curve_edges", r.curve_edges},
+                    {"planar_patches", r.planar.patches},
+                    {"planar_faces", r.planar.faces},
+                    {"planar_max_move", r.planar.max_move},
+                    {"seconds", r.placement_seconds}};
   const ValidityReport& V = r.validity;
   j["validity"] = {{"checked", V.checked},
                    {"invalid_before", V.invalid_before},

@@ -1,16 +1,11 @@
 #include "engine/curving/stencil.hpp"
 
+#include "engine/core/union_find.hpp"
+
 #include <algorithm>
 #include <numeric>
 
 namespace hocurve {
-
-namespace {
-int find_root(std::vector<int>& parent, int a) {
-  while (parent[a] != a) a = parent[a] = parent[parent[a]];
-  return a;
-}
-}  // namespace
 
 Wedges build_wedges(const Mesh& mesh, const Topology& T, const std::vector<char>& edge_feature) {
   const int nv = mesh.num_vertices();

@@ -161,10 +161,11 @@ TEST_CASE("armadillo 2%: corners the decimation moved off dropped creases stay o
   CHECK(shortest > 1e-6 * L.bbox_diagonal);
 }
 
-TEST_CASE("CAD export: bands between two feature curves keep their ruled fits under the coarse nodes") {
+TEST_CASE("CAD export: under the coarse nodes, bands keep their ruled fits and flat faces stay flat") {
   // ktoolcav at 4%: the straight coarse mesh is within 1.5% of the input (max_deviation), and the
   // coarse nodes snap onto the dense fitted surface. Without the band refits that surface bulged
-  // 5.2% of the diagonal off the input on one-triangle-wide strips (curve_mesh refits them).
+  // 5.2% of the diagonal off the input on one-triangle-wide strips (curve_mesh refits them), and
+  // 2.2% on flat faces next to fillets without planar_patch_faces; 1.0% with both.
   const Mesh fine = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/ktoolcav.stl").mesh;
   DecimateOptions dopt;
   dopt.target_ratio = 0.04;
@@ -173,7 +174,7 @@ TEST_CASE("CAD export: bands between two feature curves keep their ruled fits un
   const double h = hausdorff_distance(fine, tessellate(L.mesh, 8), 4).hausdorff() / L.bbox_diagonal;
   MESSAGE("ktoolcav 4%: " << L.mesh.num_faces() << " P4 faces, Hausdorff / diagonal " << h);
   CHECK(L.validity.invalid_after == 0);
-  CHECK(h < 0.03);
+  CHECK(h < 0.015);
 }
 
 /// Rows of a and b (same size) that differ.

@@ -318,6 +318,27 @@ TEST_CASE("real inputs (scan, CAD STL): valid, watertight, bounded deviation, fi
   }
 }
 
+TEST_CASE("flat CAD faces between fillets stay flat") {
+  // t13_data: 48 x 42 mm flat rectangles (two exactly coplanar triangles each) bordered by 2 mm
+  // fillet strips. The corner fits follow the fillets and bent them 8 mm out of their plane.
+  const Mesh m = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/t13_data.stl").mesh;
+  CurveOptions o;
+  const CurveResult r = curve_mesh(m, o);
+  o.planar.enabled = false;
+  const CurveResult bent = curve_mesh(m, o);
+  MESSAGE("t13 P4: " << r.planar.patches << " planar patches, " << r.planar.faces << " faces, nodes moved up to "
+                     << r.planar.max_move << " onto their plane; deviation " << r.deviation.max_relative << " (without: "
+                     << bent.deviation.max_relative << ")");
+  CHECK(r.planar.patches >= 4);
+  CHECK(bent.planar.patches == 0);
+  CHECK(r.validity.invalid_after == 0);
+  CHECK(watertight_gap(r.mesh) < 1e-12);
+  CHECK(r.deviation.max_relative < 0.7 * bent.deviation.max_relative);
+  // The capped cylinder's strips are coplanar pairs too, but bordered by strips of their size.
+  const CurveResult c = curve_mesh(capped_cylinder_cad(16, 0.5, 1.0), CurveOptions{});
+  CHECK(c.planar.faces == 0);
+}
+
 TEST_CASE("shared meshes on exact surfaces: P4 at least 100x closer than the linear input") {
   // sphere_surf_gmsh.stl: the unit sphere (6-digit ASCII STL: vertices off it by <= 3.5e-6);
   // torus.obj: axis y, R = 1, r = 0.25 (vertices on it to 8e-7).

@@ -1,0 +1,98 @@
+#include "engine/curving/planar_patches.hpp"
+
+#include "engine/core/union_find.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <vector>
+
+namespace hocurve {
+
+std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const PlanarPatchOptions& opt) {
+  const int nf = mesh.num_faces();
+  std::vector<int> anchor(nf, -1);
+  if (!opt.enabled) return anchor;
+  std::vector<Eigen::Vector3d> normal(nf);
+  std::vector<double> area(nf);
+  for (int f = 0; f < nf; ++f) {
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+    const Eigen::Vector3d n = (b - a).cross(c - a);
+    area[f] = 0.5 * n.norm();
+    normal[f] = area[f] > 0 ? Eigen::Vector3d(n / n.norm()) : Eigen::Vector3d::Zero();
+  }
+  // Patches: faces joined across manifold edges with (nearly) parallel normals.
+  const double cos_tol = std::cos(opt.coplanar_angle);
+  std::vector<int> parent(nf);
+  std::iota(parent.begin(), parent.end(), 0);
+  std::vector<char> coplanar_edge(T.num_edges(), 0);
+  for (int e = 0; e < T.num_edges(); ++e) {
+    const auto& ef = T.edge_faces[e];
+    if (ef.size() != 2 || !(area[ef[0]] > 0 && area[ef[1]] > 0)) continue;
+    if (normal[ef[0]].dot(normal[ef[1]]) < cos_tol) continue;
+    coplanar_edge[e] = 1;
+    parent[find_root(parent, ef[0])] = find_root(parent, ef[1]);
+  }
+  // Per patch: its size, smallest face and the largest face bordering it.
+  std::vector<int> size(nf, 0);
+  std::vector<double> smallest(nf, INFINITY), largest_border(nf, 0);
+  for (int f = 0; f < nf; ++f) {
+    const int r = find_root(parent, f);
+    ++size[r];
+    smallest[r] = std::min(smallest[r], area[f]);
+  }
+  for (int e = 0; e < T.num_edges(); ++e) {
+    if (coplanar_edge[e]) continue;
+    const auto& ef = T.edge_faces[e];
+    for (int f : ef)
+      for (int g : ef)
+        if (g != f) largest_border[find_root(parent, f)] = std::max(largest_border[find_root(parent, f)], area[g]);
+  }
+  // The anchor of a qualifying patch: its largest face.
+  std::vector<int> largest(nf, -1);
+  for (int f = 0; f < nf; ++f) {
+    const int r = find_root(parent, f);
+    if (size[r] >= 2 && smallest[r] >= opt.area_ratio * largest_border[r] && (largest[r] < 0 || area[f] > area[largest[r]]))
+      largest[r] = f;
+  }
+  for (int f = 0; f < nf; ++f) anchor[f] = largest[find_root(parent, f)];
+  return anchor;
+}
+
+PlanarPatchResult flatten_planar_patches(const Mesh& mesh, const Topology& T, HighOrderMesh& hm,
+                                         const PlanarPatchOptions& opt) {
+  PlanarPatchResult R;
+  if (hm.order < 2) return R;
+  const std::vector<int> anchor = planar_patch_faces(mesh, T, opt);
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    R.faces += anchor[f] >= 0;
+    R.patches += anchor[f] == f;
+  }
+  if (!R.faces) return R;
+  // Onto the plane of the patch's largest face (all its faces agree to coplanar_angle).
+  auto project = [&](Eigen::MatrixXd& X, Eigen::Index row, int f) {
+    const int a = anchor[f];
+    const Eigen::Vector3d o = mesh.V.row(mesh.F(a, 0)).transpose(), b = mesh.V.row(mesh.F(a, 1)).transpose(),
+                          c = mesh.V.row(mesh.F(a, 2)).transpose();
+    const Eigen::Vector3d n = (b - o).cross(c - o).normalized();
+    const double d = n.dot(X.row(row).transpose() - o);
+    X.row(row) -= d * n.transpose();
+    R.max_move = std::max(R.max_move, std::abs(d));
+  };
+  const int npe = hm.nodes_per_edge(), npf = hm.nodes_per_face();
+  std::vector<char> edge_done(T.num_edges(), 0);
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    if (anchor[f] < 0) continue;
+    for (int j = 0; j < 3; ++j) {
+      const int e = T.FE(f, j);
+      if (edge_done[e]) continue;
+      edge_done[e] = 1;
+      for (int k = 0; k < npe; ++k) project(hm.edge_nodes, static_cast<Eigen::Index>(e) * npe + k, f);
+    }
+    for (int k = 0; k < npf; ++k) project(hm.face_nodes, static_cast<Eigen::Index>(f) * npf + k, f);
+  }
+  return R;
+}
+
+}  // namespace hocurve

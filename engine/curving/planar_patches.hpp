@@ -1,0 +1,41 @@
+// Planar faces of CAD exports: a flat CAD face is triangulated by a few large, exactly coplanar
+// triangles, bordered by much smaller ones where a fillet starts. The vertex fits at its corners
+// follow the fillet (a polynomial cannot turn from a plane into a fillet) and bend the flat face.
+// Such patches are recognised by exact coplanarity plus that size contrast, and their high-order
+// nodes are put back on their plane.
+#pragma once
+#include "engine/core/mesh.hpp"
+#include "engine/core/topology.hpp"
+#include "engine/highorder/high_order_mesh.hpp"
+
+#include <vector>
+
+namespace hocurve {
+
+struct PlanarPatchOptions {
+  bool enabled = true;
+  /// Faces joined by an edge whose dihedral angle is below this (radians) are coplanar. Float32 CAD
+  /// exports are coplanar to ~1e-7; smooth meshes reach 1e-4 only where they are flat anyway.
+  double coplanar_angle = 1e-4;
+  /// A patch of at least two coplanar faces qualifies when its smallest face is at least this many
+  /// times larger than every face bordering it. Why: the strips of a CAD cylinder are planar
+  /// pairs too, but bordered by strips of their own size.
+  double area_ratio = 4.0;
+};
+
+struct PlanarPatchResult {
+  long long patches = 0;   ///< qualifying patches
+  long long faces = 0;     ///< their faces
+  double max_move = 0;     ///< largest node move onto a plane
+};
+
+/// Per face: the largest face of its qualifying planar patch (its plane), or -1.
+std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const PlanarPatchOptions& opt = {});
+
+/// Projects the high-order nodes of every qualifying planar patch of mesh (its faces' nodes and
+/// the nodes of their edges) onto the patch's plane. Nodes on feature curves keep their place
+/// along the curve (an arc bounding a flat face lies in its plane).
+PlanarPatchResult flatten_planar_patches(const Mesh& mesh, const Topology& T, HighOrderMesh& hm,
+                                         const PlanarPatchOptions& opt = {});
+
+}  // namespace hocurve
