@@ -2,6 +2,7 @@
 
 #include "engine/core/error.hpp"
 #include "engine/io/format_readers.hpp"
+#include "engine/io/weld_vertices.hpp"
 
 #include <zlib.h>
 
@@ -207,6 +208,34 @@ void check_finite_vertices(const Mesh& mesh, const std::string& name) {
 }
 }  // namespace io_detail
 
+namespace {
+
+/// Indexed formats may still repeat a position under several indices (per-face exports, meshes
+/// assembled from parts): those faces would not share their edges, and every such seam would
+/// be curved as two open boundaries. Merges exactly equal positions, as STL reading does.
+void weld_repeated_positions(ReadResult& out, const std::string& name) {
+  Mesh& m = out.mesh;
+  const Eigen::Index n = m.V.rows();
+  if (m.F.size() && (m.F.minCoeff() < 0 || m.F.maxCoeff() >= n)) return;  // validate_mesh names the bad index
+  std::vector<double> xyz(static_cast<std::size_t>(3 * n));
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) xyz[static_cast<std::size_t>(3 * i + k)] = m.V(i, k);
+  WeldResult<double> w = weld_exact(xyz.data(), static_cast<std::size_t>(n));
+  const Eigen::Index nu = static_cast<Eigen::Index>(w.points.size() / 3);
+  if (nu == n) return;
+  Eigen::MatrixXd V(nu, 3);
+  for (Eigen::Index i = 0; i < nu; ++i)
+    for (int k = 0; k < 3; ++k) V(i, k) = w.points[static_cast<std::size_t>(3 * i + k)];
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    for (int j = 0; j < 3; ++j) m.F(f, j) = w.index[static_cast<std::size_t>(m.F(f, j))];
+  m.V = std::move(V);
+  out.report.welded_vertices = n - nu;
+  out.report.warnings.push_back(name + ": " + std::to_string(n - nu) +
+                                " vertices repeat another vertex's exact position and were merged with it");
+}
+
+}  // namespace
+
 ReadResult read_mesh_bytes(std::string_view bytes, const std::string& name, const ReadOptions& opt) {
   ReadResult out;
   std::string inflated;
@@ -229,6 +258,7 @@ ReadResult read_mesh_bytes(std::string_view bytes, const std::string& name, cons
   else io_detail::read_msh(bytes, name, out);
   if (out.mesh.F.rows() == 0) throw InputError(name, "no triangles in the file");
   io_detail::check_finite_vertices(out.mesh, name);
+  if (opt.weld && fmt != "stl-binary" && fmt != "stl-ascii") weld_repeated_positions(out, name);
   out.report.facets_read = out.mesh.F.rows();
   return out;
 }

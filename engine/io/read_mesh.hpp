@@ -9,14 +9,16 @@
 namespace hocurve {
 
 struct ReadOptions {
-  bool weld = true;  ///< STL: merge exactly repeated vertex positions (STL stores each facet's own)
+  /// Merge exactly repeated vertex positions: STL stores each facet's own points; indexed formats
+  /// (OBJ, PLY, OFF, .msh) may repeat positions at per-face exports or assembled parts' seams.
+  bool weld = true;
 };
 
 struct ReadReport {
   std::string format;            ///< "stl-ascii", "stl-binary", "obj", "ply-ascii", "ply-binary", "off", "msh2", "msh4"
   bool gzip = false;             ///< the input was gzip-compressed
   long long facets_read = 0;     ///< triangles read (after fan-splitting polygons)
-  long long welded_vertices = 0; ///< repeated positions merged (STL)
+  long long welded_vertices = 0; ///< repeated positions merged
   std::vector<std::string> warnings;  ///< non-fatal problems, each naming where
 };
 

@@ -76,6 +76,34 @@ TEST_CASE("STL ascii and binary, plain and gzip: exact weld in first-seen order"
   check_same_faces(u.mesh, m);
 }
 
+TEST_CASE("Indexed formats that repeat positions are welded too (per-face exports)") {
+  // Every face with its own three vertices: unwelded, the octahedron would be 8 open triangles.
+  const Mesh m = octahedron();
+  Mesh per_face;
+  per_face.V.resize(3 * m.num_faces(), 3);
+  per_face.F.resize(m.num_faces(), 3);
+  for (int f = 0; f < m.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j) per_face.V.row(3 * f + j) = m.V.row(m.F(f, j)), per_face.F(f, j) = 3 * f + j;
+  const Mesh want = first_seen(m);
+  for (const auto& [name, data] : {std::pair<std::string, std::string>{"p.obj", obj_text(per_face)}, {"p.off", off_text(per_face)}}) {
+    CAPTURE(name);
+    const ReadResult r = read_mesh_bytes(data, name);
+    CHECK(r.report.welded_vertices == 24 - 6);
+    CHECK(r.mesh.V == want.V);
+    CHECK(r.mesh.F == want.F);
+    REQUIRE(r.report.warnings.size() == 1);
+    CHECK(r.report.warnings[0].find("18 vertices repeat") != std::string::npos);
+  }
+  // A proper indexed mesh is left as it is, and weld = false keeps the repeats.
+  const ReadResult plain = read_mesh_bytes(obj_text(m), "m.obj");
+  CHECK(plain.report.welded_vertices == 0);
+  CHECK(plain.mesh.V == m.V);
+  CHECK(plain.report.warnings.empty());
+  ReadOptions no_weld;
+  no_weld.weld = false;
+  CHECK(read_mesh_bytes(obj_text(per_face), "p.obj", no_weld).mesh.num_vertices() == 24);
+}
+
 TEST_CASE("ASCII STL with two solids gives two surface entities") {
   const Mesh m = octahedron();
   const std::string text = stl_ascii(m, "one") + stl_ascii(m, "two");
