@@ -7,6 +7,7 @@
 #include "engine/coarse/lift.hpp"
 #include "engine/coarse/vertex_fans.hpp"
 #include "engine/core/error.hpp"
+#include "engine/highorder/validity.hpp"
 #include "engine/highorder/write_msh.hpp"
 
 #include <tbb/global_control.h>
@@ -162,9 +163,17 @@ int run_coarsen(int argc, char** argv) {
   if (!dec.reached_target) std::cerr << "hocurve coarsen: warning: " << dec.message << "\n";
   const double t2 = now_seconds();
   const LiftResult lift = lift_coarse(split.mesh, dec, lopt);
+  // The split parts meet again at their pinned copies: one vertex and one edge each, as in the input.
+  HighOrderMesh result;
+  ValidityReport rejoined;
+  if (split.split_vertices > 0) {
+    result = rejoin_vertex_copies(lift.mesh, coarse_vertex_copies(split, dec.coarse_vertex_origin));
+    rejoined = repair_validity(result, lopt.validity);
+  }
+  const HighOrderMesh& out = split.split_vertices > 0 ? result : lift.mesh;
   const double t3 = now_seconds();
   progress("write", 0.9);
-  write_msh_file(lift.mesh, output, msh);
+  write_msh_file(out, output, msh);
   const double t4 = now_seconds();
   progress("done", 1.0);
 
@@ -174,13 +183,18 @@ int run_coarsen(int argc, char** argv) {
     s["input"] = input_json(input, in);
     s["decimation"] = decimation_json(dec, t2 - t1);
     s["decimation"]["split_vertices"] = split.split_vertices;
+    s["decimation"]["nonmanifold_edges"] = split.nonmanifold_edges;
     s["lifting"] = lift_json(lift);
+    s["rejoin"] = {{"vertices", lift.mesh.V.rows() - out.V.rows()},
+                   {"invalid_before", rejoined.invalid_before},
+                   {"repaired", rejoined.repaired},
+                   {"invalid_after", rejoined.invalid_after}};
     s["output"] = {{"file", output},
                    {"format", msh.version == MshOptions::Version::V22 ? "msh22" : "msh41"},
                    {"binary", msh.binary},
-                   {"order", lift.mesh.order},
+                   {"order", out.order},
                    {"nodes", to_string(lift.mesh.distribution)},
-                   {"elements", lift.mesh.num_faces()},
+                   {"elements", out.num_faces()},
                    {"bytes", std::filesystem::file_size(output)}};
     s["seconds"] = {{"load", t1 - t0}, {"decimate", t2 - t1}, {"lift", t3 - t2}, {"write", t4 - t3}, {"total", t4 - t0}};
     write_json_file(a.get("stats"), s);

@@ -8,6 +8,7 @@
 #include "engine/core/error.hpp"
 #include "engine/curving/test_meshes.hpp"
 #include "engine/highorder/lagrange.hpp"
+#include "engine/highorder/validity.hpp"
 #include "engine/io/read_mesh.hpp"
 
 #include <doctest/doctest.h>
@@ -16,6 +17,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <numbers>
 
 using namespace hocurve;
 
@@ -29,16 +31,17 @@ double max_abs(const Eigen::MatrixXd& P, const Dist& d) {
   return m;
 }
 
-/// Largest gap between the two elements of an edge, evaluated along it from both sides
-/// (Lagrange maps at 9 points per edge): 0 for a conforming mesh.
+/// Largest gap between the elements of an edge (two, or more at a non-manifold edge), evaluated
+/// along it from every side (Lagrange maps at 9 points per edge): 0 for a conforming mesh.
 double conformity_gap(const HighOrderMesh& hm) {
   const int p = hm.order;
   const Topology T = build_topology(hm.F, static_cast<int>(hm.V.rows()));
   double gap = 0;
   for (int e = 0; e < T.num_edges(); ++e) {
-    if (T.edge_faces[e].size() != 2) continue;
-    Eigen::MatrixXd pts[2];
-    for (int s = 0; s < 2; ++s) {
+    const int n = static_cast<int>(T.edge_faces[e].size());
+    if (n < 2) continue;
+    std::vector<Eigen::MatrixXd> pts(n);
+    for (int s = 0; s < n; ++s) {
       const int f = T.edge_faces[e][s];
       Eigen::MatrixXd uv(9, 2);
       for (int k = 0; k < 9; ++k) {
@@ -53,7 +56,7 @@ double conformity_gap(const HighOrderMesh& hm) {
       }
       pts[s] = evaluate_triangle(element_nodes(hm, f), p, uv);
     }
-    gap = std::max(gap, (pts[0] - pts[1]).rowwise().norm().maxCoeff());
+    for (int s = 1; s < n; ++s) gap = std::max(gap, (pts[0] - pts[s]).rowwise().norm().maxCoeff());
   }
   return gap;
 }
@@ -266,6 +269,77 @@ TEST_CASE("two spheres touching at one vertex: split, pinned, coarsened, still t
   }
   MESSAGE("split " << S.split_vertices << " vertex, " << D.coarse.num_faces() << " coarse faces, node distance to the spheres " << off);
   CHECK(off < 1e-2);
+}
+
+TEST_CASE("a sphere with an inner wall along its equator: cut, coarsened, joined again") {
+  // Edges of three faces (the equator of a latitude-longitude sphere is also the rim of a disk
+  // inside it): decimate refuses them as they are; split_vertex_fans cuts the three sheets apart at
+  // pinned copies, and rejoin_vertex_copies makes the coarse equator one curve of three-face edges.
+  const int nlon = 48;
+  const Mesh sphere = uv_sphere(24, nlon);
+  Mesh m;
+  const int ns = sphere.num_vertices(), rings = 5;
+  m.V.resize(ns + 1 + rings * nlon, 3);
+  m.V.topRows(ns) = sphere.V;
+  m.V.row(ns) << 0, 0, 0;
+  for (int r = 1; r <= rings; ++r)
+    for (int j = 0; j < nlon; ++j) {
+      const double a = 2 * std::numbers::pi * j / nlon, rad = static_cast<double>(r) / (rings + 1);
+      m.V.row(ns + 1 + (r - 1) * nlon + j) << rad * std::cos(a), rad * std::sin(a), 0;
+    }
+  auto ring = [&](int r, int j) { return r == rings + 1 ? 1 + 11 * nlon + j % nlon : ns + 1 + (r - 1) * nlon + j % nlon; };
+  for (int j = 0; j < nlon; ++j) REQUIRE(std::abs(m.V(ring(rings + 1, j), 2)) == 0.0);  // uv_sphere's equator ring
+  std::vector<std::array<int, 3>> disk;
+  for (int j = 0; j < nlon; ++j) disk.push_back({ns, ring(1, j), ring(1, j + 1)});
+  for (int r = 1; r <= rings; ++r)
+    for (int j = 0; j < nlon; ++j) {
+      disk.push_back({ring(r, j), ring(r + 1, j), ring(r + 1, j + 1)});
+      disk.push_back({ring(r, j), ring(r + 1, j + 1), ring(r, j + 1)});
+    }
+  const int nsf = sphere.num_faces(), nd = static_cast<int>(disk.size());
+  m.F.resize(nsf + nd, 3);
+  m.F.topRows(nsf) = sphere.F;
+  m.face_entity.resize(nsf + nd);
+  m.face_entity.head(nsf) = sphere.face_entity;
+  for (int i = 0; i < nd; ++i) {
+    m.F.row(nsf + i) << disk[i][0], disk[i][1], disk[i][2];
+    m.face_entity[nsf + i] = 3;
+  }
+  CHECK_THROWS_AS(decimate(m, DecimateOptions{}), InputError);
+
+  const FanSplit S = split_vertex_fans(m);
+  CHECK(S.nonmanifold_edges == nlon);
+  CHECK(S.split_vertices == nlon);  // upper half, lower half and disk: three fans each
+  CHECK(S.mesh.num_vertices() == m.num_vertices() + 2 * nlon);
+  DecimateOptions dopt;
+  dopt.target_ratio = 0.2;
+  dopt.pinned_vertices = S.pinned;
+  const DecimateResult D = decimate(S.mesh, dopt);
+  const LiftResult L = lift_coarse(S.mesh, D, lift_options(dopt, 4));
+  HighOrderMesh J = rejoin_vertex_copies(L.mesh, coarse_vertex_copies(S, D.coarse_vertex_origin));
+  const ValidityReport v = repair_validity(J);
+  MESSAGE(m.num_faces() << " faces -> " << D.coarse.num_faces() << "; rejoin: " << L.mesh.V.rows() - J.V.rows()
+                        << " vertices, " << v.invalid_before << " invalid");
+  CHECK(L.mesh.V.rows() - J.V.rows() == 2 * nlon);
+  CHECK(v.invalid_after == 0);
+  CHECK(v.invalid_before == 0);
+  const Topology T = build_topology(J.F, static_cast<int>(J.V.rows()));
+  int three = 0, open = 0;
+  for (int e = 0; e < T.num_edges(); ++e) three += T.edge_faces[e].size() == 3, open += T.edge_faces[e].size() < 2;
+  CHECK(three == nlon);
+  CHECK(open == 0);
+  CHECK(conformity_gap(J) < 1e-12);
+  // Sphere nodes on the sphere, disk nodes on its plane.
+  double off_sphere = 0, off_plane = 0;
+  for (int f = 0; f < J.num_faces(); ++f) {
+    const Eigen::MatrixXd X = element_nodes(J, f);
+    for (Eigen::Index i = 0; i < X.rows(); ++i)
+      if (J.entity_of(f) == 3) off_plane = std::max(off_plane, std::abs(X(i, 2)));
+      else off_sphere = std::max(off_sphere, std::abs(X.row(i).norm() - 1));
+  }
+  MESSAGE("node distance to the sphere " << off_sphere << ", to the disk's plane " << off_plane);
+  CHECK(off_sphere < 1e-3);
+  CHECK(off_plane < 1e-3);
 }
 
 TEST_CASE("deterministic: one thread and all threads give the same nodes") {

@@ -9,7 +9,8 @@ many elements as the stats report and close to the target; watertight/conforming
 edge's node set is shared by exactly two elements, since the torus is closed); every node lies on
 the exact torus closer than the dense input's own facets do (facet-centre distance); the stats
 report 0 invalid elements. Also --ratio with msh22 binary, a raw Thingi10K file with non-manifold
-vertices (split and coarsened), and usage errors (exit 2) / refused input (exit 3) leave no output file.
+vertices (split and coarsened), a cube with an inner wall (non-manifold edges: cut, coarsened,
+joined again), and usage errors (exit 2) / refused input (exit 3) leave no output file.
 
 Usage: test_coarsen_cli.py BUILD_DIR
 """
@@ -134,6 +135,41 @@ def main(argv):
         check(s3["decimation"]["split_vertices"] == 2 and s3["lifting"]["validity"]["invalid_after"] == 0
               and n == s3["decimation"]["faces"] and n < 202,
               "non-manifold vertices: 2 split, %d P4 elements of 202 read back, 0 invalid" % n)
+
+    # Non-manifold edges: a cube with an inner wall at z = 0.5, written one face at a time (every face
+    # its own vertices: welded on reading). The wall's rim has three faces per edge: cut open into
+    # pinned copies, coarsened, and joined again into one curve of three-element edges.
+    wall, n = os.path.join(work, "wall.obj"), 8
+    with open(wall, "w") as f:
+        quads = []
+        for axis in range(3):
+            for side in (0.0, 1.0):
+                for i in range(n):
+                    for j in range(n):
+                        c = [[(i + a) / n, (j + b) / n] for a, b in ((0, 0), (1, 0), (1, 1), (0, 1))]
+                        quads.append([x[:axis] + [side] + x[axis:] for x in c])
+        quads += [[[(i + a) / n, (j + b) / n, 0.5] for a, b in ((0, 0), (1, 0), (1, 1), (0, 1))]
+                  for i in range(n) for j in range(n)]
+        k = 0
+        for q in quads:
+            for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3])):
+                f.write("".join("v %r %r %r\n" % tuple(x) for x in t) + "f %d %d %d\n" % (k + 1, k + 2, k + 3))
+                k += 3
+    out4, stats4 = os.path.join(work, "wall.msh"), os.path.join(work, "wall.json")
+    r = subprocess.run([hoc, "coarsen", wall, "-o", out4, "--order", "4", "--ratio", "0.3", "--stats", stats4],
+                       capture_output=True, text=True, timeout=300)
+    check(r.returncode == 0, "non-manifold edges: coarsen exits 0 (%s)" % r.stderr.strip())
+    if r.returncode == 0:
+        s4 = json.load(open(stats4))
+        types, conns, _ = read_msh(out4)
+        conn = np.asarray(conns[0]).reshape(-1, 15) if types == [23] else np.zeros((0, 15))
+        three = sum(1 for c in edge_sets(conn, 4).values() if c == 3)
+        open_edges = sum(1 for c in edge_sets(conn, 4).values() if c == 1)
+        check(s4["decimation"]["nonmanifold_edges"] == 4 * n and s4["rejoin"]["vertices"] == 8 * n
+              and s4["rejoin"]["invalid_after"] == 0 and s4["lifting"]["validity"]["invalid_after"] == 0
+              and three == 4 * n and open_edges == 0 and len(conn) < 8 * n * n,
+              "non-manifold edges: %d three-element edges (want %d), %d open, %d P4 elements of %d, 0 invalid"
+              % (three, 4 * n, open_edges, len(conn), 14 * n * n))
 
     # --max-deviation: bunny at 2% would cut the ears off; the limit stops early and says so.
     bunny = os.path.join(shared, "meshes", "bunny_closed.obj")
