@@ -28,6 +28,7 @@ const std::vector<OptionSpec> kCurveOptions = {
     {"stats", true, "write every stage's figures and timings as JSON to this file"},
     {"threads", true, "worker threads (default: all cores)"},
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
+    {"long-edge-ratio", true, "edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
     {"support", true, "auto (default: when the triangulation is non-uniform) | on | off"},
     {"seed", true, "seed of the random support samples (default 1)"},
     {"progress", false, "print progress as JSON lines on stdout"},
@@ -58,6 +59,7 @@ int run_curve(int argc, char** argv) {
                                                                              : CurveOptions::Method::Solf;
   opt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
   opt.features.angle_deg = a.get_double("feature-angle", opt.features.angle_deg, 0.0, 180.0);
+  opt.long_edges.ratio = a.get_double("long-edge-ratio", opt.long_edges.ratio, 0.0, 1e9);
   const std::string support = a.get_choice("support", "auto", {"auto", "on", "off"});
   opt.use_support = support == "on"    ? Tristate::On
                     : support == "off" ? Tristate::Off

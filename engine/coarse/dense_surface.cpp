@@ -28,6 +28,8 @@ DenseSurface build_dense_surface(const Mesh& fine, const DenseSurfaceOptions& op
   S.fits = fit_wedges(fine, S.T, S.W, opt.degree, S.support_used ? &support : nullptr, opt.fit);
   refit_band_wedges(fine, S.T, S.W, S.features, opt.degree, opt.fit, S.fits.fits);  // as curve_mesh does
   S.planar_anchor = planar_patch_faces(fine, S.T, opt.planar);
+  S.long_edges = opt.long_edges;
+  S.long_face = long_edges(fine, S.T, S.W, S.fits.fits, opt.long_edges).face;
   S.curves = fit_feature_curves(fine, S.T, S.features, opt.degree, opt.fit);
   S.max_lift = opt.max_lift;
   S.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -111,6 +113,8 @@ double mean_edge(const Mesh& m, int f) {
 /// lift of the fits' blend, or linear itself on a flat CAD face (planar_patch_faces).
 Eigen::Vector3d surface_point(const DenseSurface& S, int f, const Eigen::Vector3d& bc, const Eigen::Vector3d& linear) {
   if (!S.planar_anchor.empty() && S.planar_anchor[f] >= 0) return linear;
+  if (!S.long_face.empty() && S.long_face[f])
+    return capped_lift(linear, long_face_point(*S.mesh, S.W, f, bc, S.long_edges), mean_edge(*S.mesh, f), S.max_lift);
   return capped_lift(linear, blend_point(*S.mesh, S.W, S.fits.fits, f, bc), mean_edge(*S.mesh, f), S.max_lift);
 }
 

@@ -8,6 +8,7 @@
 #include "engine/curving/curve_fit.hpp"
 #include "engine/curving/features.hpp"
 #include "engine/curving/local_fit.hpp"
+#include "engine/curving/long_edges.hpp"
 #include "engine/curving/stencil.hpp"
 
 #include <Eigen/Core>
@@ -24,6 +25,7 @@ struct DenseSurfaceOptions {
   /// 12k-triangle sphere); on scans, one-sided fits at noisy creases overshoot up to 0.3 h.
   double max_lift = 0.1;
   PlanarPatchOptions planar;  ///< flat CAD faces stay flat, as in curve_mesh
+  LongEdgeOptions long_edges;  ///< faces with an edge the fits do not reach: PN triangles, as in curve_mesh
 };
 
 /// The dense mesh with its topology, features, wedges and fits (everything needed to evaluate
@@ -36,6 +38,8 @@ struct DenseSurface {
   FitResult fits;
   CurveFitResult curves;
   std::vector<int> planar_anchor;  ///< per face: planar_patch_faces() (>= 0: the face stays flat)
+  std::vector<char> long_face;     ///< per face: LongEdgeResult::face (1: its PN triangle)
+  LongEdgeOptions long_edges;
   bool support_used = false;
   double max_lift = 0.1;
   double seconds = 0;

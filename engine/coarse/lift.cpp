@@ -268,6 +268,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   dso.max_lift = opt.max_lift;
   dso.features = opt.features;
   dso.fit = opt.fit;
+  dso.long_edges = opt.long_edges;
   const DenseSurface S = build_dense_surface(fine, dso);
   R.dense_feature_edges = S.features.feature_edges;
   R.dense_corners = S.features.corners;

@@ -34,6 +34,7 @@ struct LiftOptions {
   int dense_degree = 4;        ///< degree of the dense fits (the reference surface)
   double max_lift = 0.1;       ///< DenseSurfaceOptions::max_lift
   FitOptions fit;              ///< dense and coarse fits
+  LongEdgeOptions long_edges;  ///< dense faces with an edge their fits do not reach: PN triangles
   double coarse_sigma_factor = 1.0;  ///< Gaussian sigma of the coarse fits, in mean coarse edge lengths
   int max_rings = 3;           ///< coarse rings a coarse fit may grow to when short of dense points
   bool refine = true;          ///< snap nodes onto the dense fitted surface (else: coarse fits only)

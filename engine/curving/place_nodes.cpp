@@ -28,7 +28,8 @@ Eigen::Vector3d edge_barycentric(const Mesh& mesh, const Topology& T, int e, int
 
 PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W,
                             const std::vector<LocalFit>& fits, const Features* feat,
-                            const CurveFitResult* curves, int p, NodeDistribution d) {
+                            const CurveFitResult* curves, int p, NodeDistribution d,
+                            const LongEdgeResult* long_edge) {
   const auto t0 = std::chrono::steady_clock::now();
   PlacementResult R;
   R.mesh = high_order_frame(mesh, T, p, d);
@@ -46,7 +47,12 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
   tbb::parallel_for(tbb::blocked_range<int>(0, ne), [&](const tbb::blocked_range<int>& r) {
     for (int e = r.begin(); e < r.end(); ++e) {
       const int a = T.E(e, 0);
-      const int f = T.edge_faces[e].empty() ? -1 : T.edge_faces[e][0];
+      int f = T.edge_faces[e].empty() ? -1 : T.edge_faces[e][0];
+      // An unreached long edge goes on the PN curve of one of its faces (computed once: conforming).
+      const bool pn = long_edge && long_edge->unreached[e];
+      if (pn)
+        for (int g : T.edge_faces[e])
+          if (long_edge->face[g]) { f = g; break; }
       for (int k = 1; k < p; ++k) {
         const double t = line[k];
         Eigen::Vector3d q;
@@ -54,7 +60,8 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
           q = curves ? curve_edge_point(mesh, T, *curves, e, t)
                      : Eigen::Vector3d((1 - t) * mesh.V.row(a) + t * mesh.V.row(T.E(e, 1)));
         } else {
-          q = blend_point(mesh, W, fits, f, edge_barycentric(mesh, T, e, f, t));
+          const Eigen::Vector3d xi = edge_barycentric(mesh, T, e, f, t);
+          q = pn ? long_face_point(mesh, W, f, xi, long_edge->options) : blend_point(mesh, W, fits, f, xi);
         }
         hm.edge_nodes.row(static_cast<Eigen::Index>(e) * npe + k - 1) = q.transpose();
       }
@@ -66,10 +73,15 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
         for (int k = 0; k < npf; ++k) {
           const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
           const Eigen::Vector3d xi(1 - u - v, u, v);
-          hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k) = blend_point(mesh, W, fits, f, xi).transpose();
+          hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k) =
+              (long_edge && long_edge->face[f] ? long_face_point(mesh, W, f, xi, long_edge->options)
+                                               : blend_point(mesh, W, fits, f, xi)).transpose();
         }
     });
-  for (int e = 0; e < ne; ++e) R.curve_edges += on_curve[e];
+  for (int e = 0; e < ne; ++e) {
+    R.curve_edges += on_curve[e];
+    R.long_edges += long_edge && long_edge->unreached[e] && !on_curve[e];
+  }
   R.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return R;
 }

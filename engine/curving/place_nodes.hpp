@@ -7,6 +7,7 @@
 #include "engine/curving/curve_fit.hpp"
 #include "engine/curving/features.hpp"
 #include "engine/curving/local_fit.hpp"
+#include "engine/curving/long_edges.hpp"
 #include "engine/curving/stencil.hpp"
 #include "engine/highorder/high_order_mesh.hpp"
 
@@ -26,14 +27,17 @@ Eigen::Vector3d edge_barycentric(const Mesh& mesh, const Topology& T, int e, int
 struct PlacementResult {
   HighOrderMesh mesh;
   long long curve_edges = 0;   ///< edges placed along feature-curve fits
+  long long long_edges = 0;    ///< unreached long edges placed on a PN curve (off feature curves)
   double seconds = 0;
 };
 
 /// Places the order-p nodes (distribution d) of every edge and face (TBB-parallel; every item
 /// is computed independently, so the result does not depend on the thread count).
-/// curves / feat may be null: then every edge uses the surface blend.
+/// curves / feat may be null: then every edge uses the surface blend. long_edge (may be null):
+/// its faces (LongEdgeResult::face) and unreached edges go on their PN triangles (long_face_point).
 PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W,
                             const std::vector<LocalFit>& fits, const Features* feat,
-                            const CurveFitResult* curves, int p, NodeDistribution d);
+                            const CurveFitResult* curves, int p, NodeDistribution d,
+                            const LongEdgeResult* long_edge = nullptr);
 
 }  // namespace hocurve

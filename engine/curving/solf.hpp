@@ -7,6 +7,7 @@
 #include "engine/curving/distance_field.hpp"
 #include "engine/curving/features.hpp"
 #include "engine/curving/local_fit.hpp"
+#include "engine/curving/long_edges.hpp"
 #include "engine/curving/planar_patches.hpp"
 #include "engine/curving/support_points.hpp"
 #include "engine/curving/uniformity.hpp"
@@ -31,6 +32,7 @@ struct CurveOptions {
   SupportOptions support;
   FitOptions fit;
   PlanarPatchOptions planar;                       ///< flat CAD faces keep their nodes on their plane
+  LongEdgeOptions long_edges;                      ///< faces with an edge the fits do not reach: PN triangles
   ValidityOptions validity;
   Tristate use_support = Tristate::Auto;
   bool repair = true;                              ///< run repair_validity (else only check)
@@ -65,6 +67,9 @@ struct CurveResult {
   FitResult fits;                 ///< per-wedge fits (the fits vector itself is kept for callers)
   CurveFitResult curve_fits;
   long long curve_edges = 0;
+  long long long_edges = 0;       ///< edges much longer than those around their ends (LongEdgeOptions)
+  long long long_edges_placed = 0;  ///< of them, whose end fits disagree: placed on a PN curve (off feature curves)
+  long long long_faces = 0;       ///< faces with such an edge: their interior nodes are on their PN triangle
   PlanarPatchResult planar;
   double placement_seconds = 0;
   ValidityReport validity;

@@ -40,6 +40,9 @@ nlohmann::json stats_json(const CurveResult& r) {
   j["curve_fits"] = {{"fitted", r.curve_fits.fitted}, {"downgraded", r.curve_fits.downgraded},
                      {"seconds", r.curve_fits.seconds}};
   j["placement"] = {{"curve_edges", r.curve_edges},
+                    {"long_edges", r.long_edges},
+                    {"long_edges_placed", r.long_edges_placed},
+                    {"long_faces", r.long_faces},
                     {"planar_patches", r.planar.patches},
                     {"planar_faces", r.planar.faces},
                     {"planar_max_move", r.planar.max_move},

@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include "engine/core/topology.hpp"
+#include "engine/curving/long_edges.hpp"
 #include "engine/curving/solf.hpp"
 #include "engine/curving/test_meshes.hpp"
 #include "engine/highorder/lagrange.hpp"
@@ -337,6 +338,65 @@ TEST_CASE("flat CAD faces between fillets stay flat") {
   // The capped cylinder's strips are coplanar pairs too, but bordered by strips of their size.
   const CurveResult c = curve_mesh(capped_cylinder_cad(16, 0.5, 1.0), CurveOptions{});
   CHECK(c.planar.faces == 0);
+}
+
+TEST_CASE("long edges of CAD exports take their PN triangle; gradual meshes have none") {
+  // t13_data: 48 mm extrusion-wall strips meet 2.6 mm fillet strips at 15 degrees; the corner fits
+  // follow the fillets and bulged the walls by 4.4 mm. hinge_netgen: the same with Netgen's fans.
+  for (const char* name : {"t13_data.stl", "hinge_netgen.stl"}) {
+    const Mesh m = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/" + name).mesh;
+    CurveOptions o;
+    const CurveResult r = curve_mesh(m, o);
+    o.long_edges.ratio = 0;
+    const CurveResult fits_only = curve_mesh(m, o);
+    MESSAGE(std::string(name) << " P4: " << r.long_edges << " long edges, " << r.long_edges_placed << " placed on PN curves, "
+                 << r.long_faces << " PN faces; deviation " << r.deviation.max_relative << " (fits only: "
+                 << fits_only.deviation.max_relative << ")");
+    CHECK(r.long_faces > 0);
+    CHECK(fits_only.long_faces == 0);
+    CHECK(r.validity.invalid_after == 0);
+    CHECK(watertight_gap(r.mesh) < 1e-12);
+    CHECK(r.deviation.max_relative < 0.5 * fits_only.deviation.max_relative);
+  }
+  // Structured meshes, graded 5:1 or with pole fans: no edge is twice the median at its ends.
+  for (const Mesh& m : {icosphere(3), torus_grid(48, 16, 1.0, 0.4), graded_torus(120, 48, 1.0, 0.4, 0.8),
+                        uv_sphere(24, 48), ellipsoid_mesh(3, 1.0, 0.7, 0.5)}) {
+    const CurveResult r = curve_mesh(m, CurveOptions{});
+    CHECK(r.long_edges == 0);
+  }
+}
+
+TEST_CASE("PN triangles: corners kept, flat stays flat, a sphere octant within its cubic error") {
+  Eigen::Matrix3d P, N;
+  P << 0, 0, 0, 2, 0, 0, 0, 1, 0;
+  N << 0, 0, 1, 0, 0, 1, 0, 0, 1;
+  double off_plane = 0, corner = 0;
+  for (const Eigen::Vector3d xi : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0, 1)}) {
+    corner = std::max(corner, (pn_triangle_point(P, N, xi) - P.transpose() * xi).norm());
+  }
+  for (double u = 0; u <= 1.0001; u += 0.125)
+    for (double v = 0; u + v <= 1.0001; v += 0.125) {
+      const Eigen::Vector3d x = pn_triangle_point(P, N, Eigen::Vector3d(1 - u - v, u, v));
+      off_plane = std::max(off_plane, std::abs(x.z()));
+    }
+  CHECK(corner == 0.0);
+  CHECK(off_plane < 1e-15);
+  // Sphere patches with their exact normals: the cubic patch converges at about fourth order (a 90-degree
+  // octant is 23% off: PN triangles are for faces that turn little).
+  auto sphere_off = [&](double a) {
+    P.row(0) = Eigen::RowVector3d(1, 0, 0);
+    P.row(1) = Eigen::RowVector3d(1, a, 0).normalized();
+    P.row(2) = Eigen::RowVector3d(1, 0, a).normalized();
+    double off = 0;
+    for (double u = 0; u <= 1.0001; u += 0.0625)
+      for (double v = 0; u + v <= 1.0001; v += 0.0625)
+        off = std::max(off, std::abs(pn_triangle_point(P, P, Eigen::Vector3d(1 - u - v, u, v)).norm() - 1));
+    return off;
+  };
+  const double e1 = sphere_off(0.4), e2 = sphere_off(0.2);
+  MESSAGE("PN sphere patch: max |r - 1| = " << e1 << " (edge 0.4), " << e2 << " (0.2): order " << std::log2(e1 / e2));
+  CHECK(e1 < 3e-3);
+  CHECK(std::log2(e1 / e2) > 3.5);
 }
 
 TEST_CASE("shared meshes on exact surfaces: P4 at least 100x closer than the linear input") {

@@ -5,6 +5,8 @@ Shapes: unit sphere (h=0.1, ~3.2k triangles) and torus R=1, r=0.4 (h=0.2, ~1k tr
 Gmsh from exact OCC CAD and written as binary STL. hocurve curves them to P4; bench/measure_error.py
 samples every element's Lagrange map (Gmsh basis functions) and measures the exact distance.
 
+Also an abruptly graded sphere (h = 0.2, and 0.025 for x > 0.3): its long edges keep their fits.
+
 Asserts: output reads back with Gmsh as a single block of type-23 triangles, one per input triangle,
 watertight/conforming (every edge's node set shared by exactly two elements), no element with a
 non-positive sampled Jacobian against its straight normal; sphere: P4 error >= 1000x below the
@@ -48,6 +50,58 @@ def check_harness(work):
           "harness: an unshared high-order edge node is detected (%d edge keys used once)" % e["edges_not_twice"])
 
 
+def graded_sphere(work):
+    """Unit sphere meshed by Gmsh at h = 0.2, and h = 0.025 for x > 0.3 with no transition: an
+    abrupt 8:1 jump (binary STL)."""
+    gmsh = shapes.gmsh_init()
+    gmsh.model.add("graded_sphere")
+    gmsh.model.occ.addSphere(0, 0, 0, 1)
+    gmsh.model.occ.synchronize()
+    f = gmsh.model.mesh.field.add("Box")
+    for k, v in dict(VIn=0.025, VOut=0.2, XMin=0.3, XMax=2, YMin=-2, YMax=2, ZMin=-2, ZMax=2, Thickness=0).items():
+        gmsh.model.mesh.field.setNumber(f, k, v)
+    gmsh.model.mesh.field.setAsBackgroundMesh(f)
+    for o in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature",
+              "Mesh.MeshSizeMin"):
+        gmsh.option.setNumber(o, 0)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 1e22)
+    gmsh.option.setNumber("Mesh.Algorithm", 6)
+    gmsh.model.mesh.generate(2)
+    path = os.path.join(work, "graded_sphere.stl")
+    gmsh.option.setNumber("Mesh.Binary", 1)
+    gmsh.write(path)
+    gmsh.model.mesh.field.remove(f)
+    gmsh.model.remove()
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 1)  # the defaults shapes.make_stl relies on
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
+    return path
+
+
+def check_graded(hoc, work):
+    """Long edges (LongEdgeOptions) on a smooth surface graded abruptly: the edges at the jump are
+    long, but their end fits agree, so the fits keep them (PN triangles there measured 1.9e-2)."""
+    stl = graded_sphere(work)
+    dist = me.distance_function("sphere", stl)
+    lin = me.measure(stl, "sphere", stl, dist=dist)
+    res = {}
+    for ratio in ("2", "0"):
+        out = os.path.join(work, "graded_%s.msh" % ratio)
+        r = accuracy.run_hocurve(hoc, stl, out, 4, os.path.join(work, "graded_%s.json" % ratio), threads=2,
+                                 extra=["--long-edge-ratio", ratio], timeout=300)
+        check(r["rc"] == 0, "graded sphere: hocurve curve --long-edge-ratio %s exits 0 %s" % (ratio, r["stderr"][-300:]))
+        if r["rc"] != 0:
+            return
+        res[ratio] = (me.measure(out, "sphere", stl, dist=dist), r["stats"]["curving"]["placement"])
+    (m, pl), (m0, _) = res["2"], res["0"]
+    print("      graded sphere: %d triangles, %d long edges, %d on PN curves; linear max %.3e | P4 max %.3e "
+          "(long edges off: %.3e)" % (lin["elements"], pl["long_edges"], pl["long_edges_placed"], lin["max"],
+                                      m["max"], m0["max"]), flush=True)
+    check(pl["long_edges"] > 0 and pl["long_edges_placed"] == 0,
+          "graded sphere: %d long edges, none placed on PN curves" % pl["long_edges"])
+    check(m["max"] * 1000 <= lin["max"] and m["max"] <= 1.01 * m0["max"] and m["nonpositive_jacobian"] == 0,
+          "graded sphere: P4 error %.3e at least 1000x below linear %.3e, as without long edges" % (m["max"], lin["max"]))
+
+
 def main(argv):
     build = argv[1] if len(argv) > 1 else os.environ.get("HOCURVE_BUILD_DIR", "build")
     hoc = os.path.join(build, "hocurve")
@@ -56,6 +110,7 @@ def main(argv):
         return 1
     work = tempfile.mkdtemp(prefix="hocurve-acc-")
     check_harness(work)
+    check_graded(hoc, work)
     # (shape, size, strict): strict = the brief's targets (>= 1000x below linear, <= 10x Gmsh's
     # exact-CAD P4); the coarse torus (h = r/2) only has to beat the linear input by 4x.
     cases = [("sphere", 0.1, True), ("torus", 0.2, False)]
