@@ -157,7 +157,6 @@ long long refit_band_wedges(const Mesh& mesh, const Topology& T, const Wedges& W
       if (is_band_wedge(mesh, T, W, feat, w)) {
         band[w] = 1;
         fits[w] = fit_band_wedge(mesh, T, W, feat, w, p, fits[w], opt);
-        fits[w].ruled = true;
       }
   });
   long long count = 0;

@@ -120,7 +120,6 @@ struct LocalFit {
   /// points barely determine the polynomial (e.g. all on two lines).
   double pivot_ratio = 0;
   bool identity = false;        ///< no sane fit: project() returns its argument (straight)
-  bool ruled = false;           ///< a band wedge's ruled refit (refit_band_wedges): it spans its band
   /// Curvatures of the reference surface the heights are measured from, along t1 and t2
   /// (|k2| >= |k1|; both 0: the tangent plane): the torus touching the plane at o with those
   /// normal curvatures, axis along t2 through o + n / k1, tube radius 1 / |k2| (a cylinder when

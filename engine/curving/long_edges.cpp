@@ -35,7 +35,6 @@ LongEdgeResult long_edges(const Mesh& mesh, const Topology& T, const Wedges& W, 
       const int e = T.FE(f, j);
       if (!R.edge[e] || R.unreached[e]) continue;
       const LocalFit &fa = fits[W.corner_wedge(f, j)], &fb = fits[W.corner_wedge(f, (j + 1) % 3)];
-      if (fa.ruled && fb.ruled) continue;
       const Eigen::Vector3d a = mesh.V.row(mesh.F(f, j)), b = mesh.V.row(mesh.F(f, (j + 1) % 3)), m = (a + b) / 2;
       const double miss = std::max({(fa.project(b) - b).norm(), (fb.project(a) - a).norm(),
                                     (fa.project(m) - fb.project(m)).norm()});

@@ -33,15 +33,15 @@ struct LongEdgeOptions {
 
 struct LongEdgeResult {
   std::vector<char> edge;       ///< per Topology edge: 1 when long (by length alone)
-  std::vector<char> unreached;  ///< per edge: long, its end fits disagree, and they are not both ruled band refits
+  std::vector<char> unreached;  ///< per edge: long, and its end fits disagree about it
   std::vector<char> face;       ///< per face: 1 when one of its edges is unreached (placed on its PN triangle)
   long long edges = 0, unreached_edges = 0, faces = 0;
   LongEdgeOptions options;
 };
 
 /// Flags the long edges of mesh, those whose end fits (the corner fits of W, fits) disagree, and
-/// their faces. Ruled band refits span their band and are trusted: on a CAD cylinder's strips the
-/// same-size chord normals would flatten the arcs (2077x -> 1x).
+/// their faces. A CAD cylinder's one-row side strips are long, but their ruled band refits agree
+/// (the same-size chord normals would flatten the arcs there: 2077x -> 1x).
 LongEdgeResult long_edges(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
                           const LongEdgeOptions& opt = {});
 
