@@ -69,14 +69,20 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
   });
   if (npf > 0)
     tbb::parallel_for(tbb::blocked_range<int>(0, nf), [&](const tbb::blocked_range<int>& r) {
-      for (int f = r.begin(); f < r.end(); ++f)
+      for (int f = r.begin(); f < r.end(); ++f) {
+        const bool pn = long_edge && long_edge->face[f];
+        Eigen::Matrix3d P, N;
+        if (pn) {
+          for (int j = 0; j < 3; ++j) P.row(j) = mesh.V.row(mesh.F(f, j));
+          N = same_size_normals(mesh, W, f, long_edge->options);
+        }
         for (int k = 0; k < npf; ++k) {
           const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
           const Eigen::Vector3d xi(1 - u - v, u, v);
           hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k) =
-              (long_edge && long_edge->face[f] ? long_face_point(mesh, W, f, xi, long_edge->options)
-                                               : blend_point(mesh, W, fits, f, xi)).transpose();
+              (pn ? pn_triangle_point(P, N, xi) : blend_point(mesh, W, fits, f, xi)).transpose();
         }
+      }
     });
   for (int e = 0; e < ne; ++e) {
     R.curve_edges += on_curve[e];

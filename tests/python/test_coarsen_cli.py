@@ -53,6 +53,19 @@ def read_msh(path):
         gmsh.finalize()
 
 
+def coarsen_p4(hoc, src, work, name, ratio):
+    """`hocurve coarsen SRC --order 4 --ratio RATIO --stats`: (process, stats, element types, connectivity);
+    the last three None when it failed."""
+    out, stats = os.path.join(work, name + ".msh"), os.path.join(work, name + ".json")
+    r = subprocess.run([hoc, "coarsen", src, "-o", out, "--order", "4", "--ratio", str(ratio), "--stats", stats],
+                       capture_output=True, text=True, timeout=300)
+    if r.returncode != 0:
+        return r, None, None, None
+    types, conns, _ = read_msh(out)
+    with open(stats) as f:
+        return r, json.load(f), types, conns
+
+
 def edge_sets(conn, p):
     """For each element edge, the frozenset of its p+1 node tags (Gmsh order: 3 corners, then the
     p-1 nodes of edges 0-1, 1-2, 2-0)."""
@@ -124,13 +137,9 @@ def main(argv):
 
     # Non-manifold vertices (raw Thingi10K part touching itself at 2 points): split, pinned, coarsened.
     nm = os.path.join(shared, "meshes", "thingi10k_449816.stl")
-    out3, stats3 = os.path.join(work, "nm.msh"), os.path.join(work, "nm.json")
-    r = subprocess.run([hoc, "coarsen", nm, "-o", out3, "--order", "4", "--ratio", "0.3", "--stats", stats3],
-                       capture_output=True, text=True, timeout=300)
+    r, s3, types, conns = coarsen_p4(hoc, nm, work, "nm", 0.3)
     check(r.returncode == 0, "non-manifold vertices: coarsen exits 0 (%s)" % r.stderr.strip())
     if r.returncode == 0:
-        s3 = json.load(open(stats3))
-        types, conns, _ = read_msh(out3)
         n = len(conns[0]) // 15 if types == [23] else -1
         check(s3["decimation"]["split_vertices"] == 2 and s3["lifting"]["validity"]["invalid_after"] == 0
               and n == s3["decimation"]["faces"] and n < 202,
@@ -155,13 +164,9 @@ def main(argv):
             for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3])):
                 f.write("".join("v %r %r %r\n" % tuple(x) for x in t) + "f %d %d %d\n" % (k + 1, k + 2, k + 3))
                 k += 3
-    out4, stats4 = os.path.join(work, "wall.msh"), os.path.join(work, "wall.json")
-    r = subprocess.run([hoc, "coarsen", wall, "-o", out4, "--order", "4", "--ratio", "0.3", "--stats", stats4],
-                       capture_output=True, text=True, timeout=300)
+    r, s4, types, conns = coarsen_p4(hoc, wall, work, "wall", 0.3)
     check(r.returncode == 0, "non-manifold edges: coarsen exits 0 (%s)" % r.stderr.strip())
     if r.returncode == 0:
-        s4 = json.load(open(stats4))
-        types, conns, _ = read_msh(out4)
         conn = np.asarray(conns[0]).reshape(-1, 15) if types == [23] else np.zeros((0, 15))
         three = sum(1 for c in edge_sets(conn, 4).values() if c == 3)
         open_edges = sum(1 for c in edge_sets(conn, 4).values() if c == 1)
