@@ -8,18 +8,30 @@ namespace hocurve {
 Topology build_topology(const Eigen::MatrixXi& F, int nv) {
   Topology T;
   const int nf = static_cast<int>(F.rows());
-  // Sort (min,max,face,corner) records: deterministic edge numbering by vertex pair.
+  // (min,max,face,corner) records in that order: deterministic edge numbering by vertex pair.
+  // A counting sort by min vertex keeps the (face, corner) order of creation; a stable insertion
+  // sort of each vertex's few records by max vertex finishes it (linear time: a comparison sort
+  // of all 3F records was a third of reading and validating a 200k-triangle mesh).
   struct Rec { int a, b, f, j; };
-  std::vector<Rec> recs;
-  recs.reserve(3 * static_cast<size_t>(nf));
+  int buckets = nv;
   for (int f = 0; f < nf; ++f)
-    for (int j = 0; j < 3; ++j) {
-      int a = F(f, j), b = F(f, (j + 1) % 3);
-      recs.push_back({std::min(a, b), std::max(a, b), f, j});
-    }
-  std::sort(recs.begin(), recs.end(), [](const Rec& x, const Rec& y) {
-    return x.a != y.a ? x.a < y.a : x.b != y.b ? x.b < y.b : x.f != y.f ? x.f < y.f : x.j < y.j;
-  });
+    for (int j = 0; j < 3; ++j) buckets = std::max(buckets, F(f, j) + 1);
+  std::vector<int> first(static_cast<size_t>(buckets) + 1, 0);
+  for (int f = 0; f < nf; ++f)
+    for (int j = 0; j < 3; ++j) ++first[std::min(F(f, j), F(f, (j + 1) % 3)) + 1];
+  for (int v = 0; v < buckets; ++v) first[v + 1] += first[v];
+  std::vector<Rec> recs(3 * static_cast<size_t>(nf));
+  {
+    std::vector<int> fill(first.begin(), first.end() - 1);
+    for (int f = 0; f < nf; ++f)
+      for (int j = 0; j < 3; ++j) {
+        const int a = F(f, j), b = F(f, (j + 1) % 3);
+        recs[fill[std::min(a, b)]++] = {std::min(a, b), std::max(a, b), f, j};
+      }
+  }
+  for (int v = 0; v < buckets; ++v)
+    for (int i = first[v] + 1; i < first[v + 1]; ++i)
+      for (int k = i; k > first[v] && recs[k - 1].b > recs[k].b; --k) std::swap(recs[k - 1], recs[k]);
   T.FE.resize(nf, 3);
   std::vector<std::pair<int, int>> edges;
   for (size_t i = 0; i < recs.size();) {
