@@ -40,7 +40,6 @@ LongEdgeResult long_edges(const Mesh& mesh, const Topology& T, const Wedges& W, 
                                     (fa.project(m) - fb.project(m)).norm()});
       R.unreached[e] = miss > opt.fit_miss * length[e];
     }
-  for (int e = 0; e < ne; ++e) R.unreached_edges += R.unreached[e];
   for (int f = 0; f < nf; ++f) {
     for (int j = 0; j < 3; ++j) R.face[f] = R.face[f] || R.unreached[T.FE(f, j)];
     R.faces += R.face[f];
@@ -80,7 +79,7 @@ Eigen::Matrix3d same_size_normals(const Mesh& mesh, const Wedges& W, int f, cons
       bool neighbour = false;  // g shares edge (corner, a1) or (corner, a2) with f
       for (int k = 0; k < 3; ++k) neighbour = neighbour || mesh.F(g, k) == a1 || mesh.F(g, k) == a2;
       const Eigen::Vector3d ng = area_normal(g);
-      if (neighbour && ng.norm() >= opt.same_scale_area * nf.norm()) n += ng;
+      if (neighbour && ng.norm() >= opt.same_size_area * nf.norm()) n += ng;
     }
     N.row(j) = (n.norm() > 0 ? Eigen::Vector3d(n.normalized()) : Eigen::Vector3d::Zero()).transpose();
   }

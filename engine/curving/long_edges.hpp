@@ -28,14 +28,14 @@ struct LongEdgeOptions {
   double fit_miss = 3e-4;
   /// A face joining a corner of a long face counts for that corner's normal when its area is at
   /// least this fraction of the long face's (faces of its own size, not the fillet strips).
-  double same_scale_area = 0.25;
+  double same_size_area = 0.25;
 };
 
 struct LongEdgeResult {
   std::vector<char> edge;       ///< per Topology edge: 1 when long (by length alone)
   std::vector<char> unreached;  ///< per edge: long, and its end fits disagree about it
   std::vector<char> face;       ///< per face: 1 when one of its edges is unreached (placed on its PN triangle)
-  long long edges = 0, unreached_edges = 0, faces = 0;
+  long long edges = 0, faces = 0;  ///< long edges, faces on their PN triangle
   LongEdgeOptions options;
 };
 
@@ -52,7 +52,7 @@ Eigen::Vector3d pn_triangle_point(const Eigen::Matrix3d& P, const Eigen::Matrix3
 
 /// Corner normals of face f at its own size: at each corner, the area-weighted normal of f and
 /// of the faces of that corner's wedge that share an edge with f and have at least
-/// opt.same_scale_area x f's area (rows: corners).
+/// opt.same_size_area x f's area (rows: corners).
 Eigen::Matrix3d same_size_normals(const Mesh& mesh, const Wedges& W, int f, const LongEdgeOptions& opt);
 
 /// pn_triangle_point of face f with its same_size_normals.

@@ -47,12 +47,10 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
   tbb::parallel_for(tbb::blocked_range<int>(0, ne), [&](const tbb::blocked_range<int>& r) {
     for (int e = r.begin(); e < r.end(); ++e) {
       const int a = T.E(e, 0);
-      int f = T.edge_faces[e].empty() ? -1 : T.edge_faces[e][0];
-      // An unreached long edge goes on the PN curve of one of its faces (computed once: conforming).
+      const int f = T.edge_faces[e].empty() ? -1 : T.edge_faces[e][0];
+      // An unreached long edge goes on the PN curve of its first face (a long face, as all its
+      // faces are; computed once per edge: conforming).
       const bool pn = long_edge && long_edge->unreached[e];
-      if (pn)
-        for (int g : T.edge_faces[e])
-          if (long_edge->face[g]) { f = g; break; }
       for (int k = 1; k < p; ++k) {
         const double t = line[k];
         Eigen::Vector3d q;
