@@ -16,6 +16,10 @@ void read_ply(std::string_view bytes, const std::string& name, ReadResult& out);
 void read_off(std::string_view bytes, const std::string& name, ReadResult& out);
 void read_msh(std::string_view bytes, const std::string& name, ReadResult& out);
 
+/// Nodes per element of a Gmsh element type (0 = unknown); binary .msh files need it to step over
+/// elements.
+int msh_nodes_per_element(int type);
+
 /// Throws InputError naming the first vertex with a NaN/Inf coordinate.
 void check_finite_vertices(const Mesh& mesh, const std::string& name);
 

@@ -1,5 +1,6 @@
 // Gmsh MSH 2.2 and 4.1, ASCII and binary (little-endian). Keeps triangles (type 2; the corner
-// nodes of higher-order triangles), their surface entity tags and the dimension-2 physical groups.
+// nodes of higher-order triangles), quadrangles split in two triangles, their surface entity tags
+// and the dimension-2 physical groups.
 #include "engine/core/error.hpp"
 #include "engine/io/format_readers.hpp"
 
@@ -10,29 +11,39 @@
 #include <unordered_map>
 
 namespace hocurve::io_detail {
-namespace {
 
-/// Nodes per element for Gmsh element types (0 = unknown). Only needed to skip elements in
-/// binary files; ASCII elements are one per line.
-int nodes_per_element(int type) {
+int msh_nodes_per_element(int type) {
+  // Gmsh 4.8 getElementProperties' node counts for types 0-137 (0: unknown or variable, as polygons).
   static constexpr int table[] = {
-      0,  2,  3,  4,  4,  8,  6,  5,  3,  6,   // 0-9
-      9,  10, 27, 18, 14, 1,  8,  20, 15, 13,  // 10-19
-      9,  10, 12, 15, 15, 21, 4,  5,  6,  20,  // 20-29
-      35, 56, 22, 28, 0,  0,  0,  16, 25, 36,  // 30-39 (32/33 incomplete tets, 36-38 quads)
-      12, 16, 28, 36, 45, 55, 66, 49, 64, 81,  // 40-49
-      100, 121, 0, 0, 0, 0, 0, 0, 0, 0,        // 50-59
-      0,  0,  7,  8,  9,  10, 11, 0,  0,  0,   // 60-69 (62-66 lines of order 6-10)
-      0,  84, 120, 165, 220, 286, 0, 0, 0, 0,  // 70-79 (71-75 tets of order 6-10)
-      0,  0,  0,  0,  0,  0,  0,  0,  0,  0,   // 80-89
-      0,  0,  64, 125};                        // 92, 93 hexahedra of order 3, 4
+      0, 2, 3, 4, 4, 8, 6, 5, 3, 6,  // 0-9
+      9, 10, 27, 18, 14, 1, 8, 20, 15, 13,  // 10-19
+      9, 10, 12, 15, 15, 21, 4, 5, 6, 20,  // 20-29
+      35, 56, 22, 28, 0, 0, 16, 25, 36, 12,  // 30-39
+      16, 20, 28, 36, 45, 55, 66, 49, 64, 81,  // 40-49
+      100, 121, 18, 21, 24, 27, 30, 24, 28, 32,  // 50-59
+      36, 40, 7, 8, 9, 10, 11, 0, 0, 0,  // 60-69
+      0, 84, 120, 165, 220, 286, 0, 0, 0, 34,  // 70-79
+      40, 46, 52, 58, 1, 1, 1, 1, 1, 1,  // 80-89
+      0, 0, 64, 125, 216, 343, 512, 729, 1000, 32,  // 90-99
+      44, 56, 68, 80, 92, 104, 0, 0, 0, 0,  // 100-109
+      0, 0, 0, 0, 0, 0, 0, 0, 30, 55,  // 110-119
+      91, 140, 204, 285, 385, 21, 29, 37, 45, 53,  // 120-129
+      61, 69, 1, 0, 0, 0, 0, 16};  // 130-137
   return type >= 0 && type < static_cast<int>(std::size(table)) ? table[type] : 0;
 }
 
+namespace {
+
 /// Triangle element types: 2 (linear) and the high-order ones, whose first 3 nodes are corners.
 bool is_triangle(int type) {
-  return type == 2 || type == 9 || type == 20 || type == 21 || type == 22 || type == 23 || type == 24 ||
-         type == 25 || (type >= 42 && type <= 46);
+  return type == 2 || type == 9 || (type >= 20 && type <= 25) || (type >= 42 && type <= 46) ||
+         (type >= 52 && type <= 56);
+}
+
+/// Quadrangle element types: 3 (linear) and the high-order ones, whose first 4 nodes are corners.
+bool is_quad(int type) {
+  return type == 3 || type == 10 || type == 16 || (type >= 36 && type <= 41) || (type >= 47 && type <= 51) ||
+         (type >= 57 && type <= 61);
 }
 
 class Cursor {
@@ -153,7 +164,9 @@ struct MshData {
   std::vector<double> xyz;
   std::vector<std::uint64_t> tri;                 // 3 node tags per triangle
   std::vector<int> tri_entity, tri_phys;
-  std::map<int, long long> skipped_types, high_order_types;
+  std::vector<std::uint64_t> quad;                // 4 node tags per quadrangle (split when assembled)
+  std::vector<int> quad_entity, quad_phys;
+  std::map<int, long long> skipped_types, high_order_types, quad_types;
 };
 
 void read_physical_names(Cursor& c, MshData& d) {
@@ -267,7 +280,17 @@ std::vector<std::uint64_t> parse_tags(const Cursor& c, std::string_view rest) {
   return out;
 }
 
-void add_triangle(MshData& d, int type, const std::uint64_t* nodes, int entity, int phys) {
+bool is_face(int type) { return is_triangle(type) || is_quad(type); }
+
+/// Keeps a triangle's or a quadrangle's corner tags (the first 3 or 4 nodes in Gmsh's order).
+void add_face(MshData& d, int type, const std::uint64_t* nodes, int entity, int phys) {
+  if (is_quad(type)) {
+    d.quad.insert(d.quad.end(), nodes, nodes + 4);
+    d.quad_entity.push_back(entity);
+    d.quad_phys.push_back(phys);
+    ++d.quad_types[type];
+    return;
+  }
   d.tri.insert(d.tri.end(), nodes, nodes + 3);
   d.tri_entity.push_back(entity);
   d.tri_phys.push_back(phys);
@@ -292,14 +315,14 @@ void read_elements2(Cursor& c, MshData& d) {
       for (auto& t : tags) t = c.integer("an element tag value");
       // The node list runs to the end of the line.
       nodes = parse_tags(c, c.line());
-      if (!is_triangle(type)) { ++d.skipped_types[type]; continue; }
-      const int want = nodes_per_element(type);
+      if (!is_face(type)) { ++d.skipped_types[type]; continue; }
+      const int want = msh_nodes_per_element(type);
       if (static_cast<int>(nodes.size()) != want)
         throw InputError(c.where(), "element " + std::to_string(i) + " (type " + std::to_string(type) + ") has " +
                                         std::to_string(nodes.size()) + " nodes, expected " + std::to_string(want));
       const int phys = ntags >= 1 ? static_cast<int>(tags[0]) : 0;
       const int ent = ntags >= 2 ? static_cast<int>(tags[1]) : 1;
-      add_triangle(d, type, nodes.data(), ent, phys);
+      add_face(d, type, nodes.data(), ent, phys);
     }
   } else {
     long long i = 0;
@@ -307,7 +330,7 @@ void read_elements2(Cursor& c, MshData& d) {
       const int type = c.bin<int>();
       const int follow = c.bin<int>();
       const int ntags = c.bin<int>();
-      const int nn = nodes_per_element(type);
+      const int nn = msh_nodes_per_element(type);
       if (nn == 0) c.fail("element type " + std::to_string(type) + " is not supported in binary msh");
       if (follow < 0 || ntags < 0 || ntags > 100 || follow > n - i) c.fail("bad element block header");
       for (int k = 0; k < follow; ++k, ++i) {
@@ -320,8 +343,8 @@ void read_elements2(Cursor& c, MshData& d) {
           if (t < 0) c.fail("negative node tag");
           v = static_cast<std::uint64_t>(t);
         }
-        if (!is_triangle(type)) { ++d.skipped_types[type]; continue; }
-        add_triangle(d, type, nodes.data(), ntags >= 2 ? tags[1] : 1, ntags >= 1 ? tags[0] : 0);
+        if (!is_face(type)) { ++d.skipped_types[type]; continue; }
+        add_face(d, type, nodes.data(), ntags >= 2 ? tags[1] : 1, ntags >= 1 ? tags[0] : 0);
       }
     }
   }
@@ -344,11 +367,11 @@ void read_elements4(Cursor& c, MshData& d) {
     const int ent = c.binary ? c.bin<int>() : static_cast<int>(c.integer("an entity tag"));
     const int type = c.binary ? c.bin<int>() : static_cast<int>(c.integer("an element type"));
     const unsigned long long n = rd("a block's element count");
-    const int nn = nodes_per_element(type);
+    const int nn = msh_nodes_per_element(type);
     c.check_fits(n, c.binary ? 8ull * (1 + std::max(nn, 1)) : 4, "element");
     if (nn == 0 && c.binary) c.fail("element type " + std::to_string(type) + " is not supported in binary msh");
     for (unsigned long long i = 0; i < n; ++i) {
-      if (!is_triangle(type)) {
+      if (!is_face(type)) {
         if (c.binary) for (int k = 0; k <= nn; ++k) c.bin_size();
         else { c.integer("an element tag"); c.line(); }
         ++d.skipped_types[type];
@@ -362,11 +385,11 @@ void read_elements4(Cursor& c, MshData& d) {
         c.skip_space();
         nodes = parse_tags(c, c.line());
         if (static_cast<int>(nodes.size()) != nn + 1)
-          c.fail("triangle of type " + std::to_string(type) + " lists " + std::to_string(nodes.size()) +
+          c.fail("element of type " + std::to_string(type) + " lists " + std::to_string(nodes.size()) +
                  " numbers, expected its tag and " + std::to_string(nn) + " nodes");
         nodes.erase(nodes.begin());
       }
-      add_triangle(d, type, nodes.data(), ent, 0);
+      add_face(d, type, nodes.data(), ent, 0);
     }
   }
   c.expect_end("Elements");
@@ -430,18 +453,33 @@ void read_msh(std::string_view b, const std::string& name, ReadResult& out) {
     sparse_map.reserve(nn);
     for (std::size_t i = 0; i < nn; ++i) sparse_map[d.node_tags[i]] = static_cast<int>(i);
   }
-  const std::size_t nt = d.tri_entity.size();
-  std::vector<int> node_of(3 * nt);
-  for (std::size_t k = 0; k < 3 * nt; ++k) {
-    const std::uint64_t t = d.tri[k];
+  const auto node_index = [&](std::uint64_t t, const std::string& element) {
     int i = -1;
     if (dense) { if (t < dense_map.size()) i = dense_map[t]; }
     else if (auto it = sparse_map.find(t); it != sparse_map.end()) i = it->second;
-    if (i < 0)
-      throw InputError(name + ": triangle " + std::to_string(k / 3),
-                       "node tag " + std::to_string(t) + " is not defined in $Nodes");
-    node_of[k] = i;
+    if (i < 0) throw InputError(name + ": " + element, "node tag " + std::to_string(t) + " is not defined in $Nodes");
+    return i;
+  };
+  std::vector<int> node_of(d.tri.size());
+  for (std::size_t k = 0; k < d.tri.size(); ++k) node_of[k] = node_index(d.tri[k], "triangle " + std::to_string(k / 3));
+  // Quadrangles become two triangles each, cut along their shorter diagonal (the better-shaped pair).
+  for (std::size_t q = 0; q < d.quad_entity.size(); ++q) {
+    int c4[4];
+    for (int j = 0; j < 4; ++j) c4[j] = node_index(d.quad[4 * q + j], "quadrangle " + std::to_string(q));
+    const auto dist2 = [&](int a, int b) {
+      double s2 = 0;
+      for (int k = 0; k < 3; ++k) s2 += (d.xyz[3 * a + k] - d.xyz[3 * b + k]) * (d.xyz[3 * a + k] - d.xyz[3 * b + k]);
+      return s2;
+    };
+    const bool cut02 = dist2(c4[0], c4[2]) <= dist2(c4[1], c4[3]);
+    const int split[2][3] = {{0, 1, cut02 ? 2 : 3}, {cut02 ? 0 : 1, 2, 3}};
+    for (const auto& t : split) {
+      for (int j : t) node_of.push_back(c4[j]);
+      d.tri_entity.push_back(d.quad_entity[q]);
+      d.tri_phys.push_back(d.quad_phys[q]);
+    }
   }
+  const std::size_t nt = d.tri_entity.size();
   std::vector<int> new_index(nn, -1);
   for (int i : node_of) new_index[i] = 0;
   int nv = 0;
@@ -486,6 +524,10 @@ void read_msh(std::string_view b, const std::string& name, ReadResult& out) {
   if (skipped)
     out.report.warnings.push_back(name + ": " + std::to_string(skipped) +
                                   " non-triangle elements ignored (" + types + ")");
+  for (const auto& [t, k] : d.quad_types)
+    out.report.warnings.push_back(name + ": " + std::to_string(k) + " quadrangles (type " + std::to_string(t) +
+                                  ") split into two triangles each along their shorter diagonal" +
+                                  (t != 3 ? ", corner nodes only" : ""));
   for (const auto& [t, k] : d.high_order_types)
     out.report.warnings.push_back(name + ": " + std::to_string(k) + " high-order triangles (type " +
                                   std::to_string(t) + "): only their 3 corner nodes were kept");

@@ -1,11 +1,14 @@
 // .msh 2.2 and 4.1, ASCII and binary, written by the Gmsh SDK: triangles, surface entity tags,
-// named physical groups, high-order triangles (corners kept) and ignored line elements.
+// named physical groups, high-order triangles (corners kept), quadrangles (split) and ignored line
+// elements; the node counts of every Gmsh element type.
 #include <doctest/doctest.h>
 
 #include "engine/core/error.hpp"
+#include "engine/io/format_readers.hpp"
 #include "engine/io/read_mesh.hpp"
 #include "io/io_test_util.hpp"
 
+#include <Eigen/Geometry>
 #include <gmsh.h>
 #include "gmsh_session.hpp"
 
@@ -130,6 +133,78 @@ TEST_CASE("msh 2.2 / 4.1, ascii / binary, linear / P2: entities, physicals, coor
           CHECK(line_warned);
           CHECK(ho_warned == (order == 2));
         }
+}
+
+TEST_CASE("msh: every element type's node count agrees with Gmsh (binary files step over elements by it)") {
+  GmshSession gs;
+  for (int type = 1; type < 140; ++type) {
+    CAPTURE(type);
+    std::string name;
+    int dim = 0, order = 0, nn = 0, np = 0;
+    std::vector<double> loc;
+    try {
+      gmsh::model::mesh::getElementProperties(type, name, dim, order, nn, loc, np);
+    } catch (...) {
+      nn = 0;  // a type this Gmsh does not know
+    }
+    CHECK(io_detail::msh_nodes_per_element(type) == nn);
+  }
+}
+
+TEST_CASE("msh 2.2 / 4.1, ascii / binary, linear / P3: quadrangles split along their shorter diagonal") {
+  GmshSession gs;
+  // Quadrangle 1 is shorter across corners 1-3, quadrangle 2 across 0-2; a triangle beside them.
+  const std::vector<double> xyz = {0, 0, 0, 3, 0, 0, 3.5, 1, 0, 0.5, 1, 0,  // tags 1-4
+                                   0, 2, 0, 2, 2, 0, 2, 3, 0, -1, 3, 0,     // tags 5-8
+                                   5, 0, 0, 6, 0, 0, 5, 1, 0};              // tags 9-11
+  for (const double version : {2.2, 4.1})
+    for (const int binary : {0, 1})
+      for (const int order : {1, 3}) {
+        CAPTURE(version);
+        CAPTURE(binary);
+        CAPTURE(order);
+        gmsh::clear();
+        gmsh::model::add("quads");
+        gmsh::model::addDiscreteEntity(2, 1);
+        gmsh::model::mesh::addNodes(2, 1, {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11}, xyz);
+        gmsh::model::mesh::addElementsByType(1, 3, {1, 2}, {1, 2, 3, 4, 5, 6, 7, 8});
+        gmsh::model::mesh::addElementsByType(1, 2, {3}, {9, 10, 11});
+        if (order == 3) gmsh::model::mesh::setOrder(3);
+        gmsh::option::setNumber("Mesh.MshFileVersion", version);
+        gmsh::option::setNumber("Mesh.Binary", binary);
+        const std::string path = iotest::tmp_path("quads.msh");
+        gmsh::write(path);
+        std::ifstream in(path, std::ios::binary);
+        const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        const ReadResult r = read_mesh_bytes(bytes, "quads.msh");
+        const Mesh& m = r.mesh;
+        REQUIRE(m.num_faces() == 5);
+        CHECK(m.num_vertices() == 11);
+        // Orientation kept (every triangle counter-clockwise in z = 0) and the area conserved.
+        double area = 0;
+        std::set<std::array<double, 4>> edges;
+        for (int f = 0; f < 5; ++f) {
+          const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+          const double twice = (b - a).cross(c - a).z();
+          CHECK(twice > 0);
+          area += twice / 2;
+          for (int j = 0; j < 3; ++j) {
+            const Eigen::Vector3d p = m.V.row(m.F(f, j)), q = m.V.row(m.F(f, (j + 1) % 3));
+            edges.insert(p.x() < q.x() || (p.x() == q.x() && p.y() < q.y()) ? std::array<double, 4>{p.x(), p.y(), q.x(), q.y()}
+                                                                               : std::array<double, 4>{q.x(), q.y(), p.x(), p.y()});
+          }
+        }
+        CHECK(area == doctest::Approx(3.0 + 2.5 + 0.5));
+        CHECK(edges.count({0.5, 1, 3, 0}) == 1);   // quadrangle 1: corners 1-3
+        CHECK(edges.count({0, 0, 3.5, 1}) == 0);
+        CHECK(edges.count({0, 2, 2, 3}) == 1);     // quadrangle 2: corners 0-2
+        CHECK(edges.count({-1, 3, 2, 2}) == 0);
+        bool warned = false;
+        for (const auto& w : r.report.warnings)
+          if (w.find(std::string("2 quadrangles (type ") + (order == 1 ? "3" : "36") + ") split") != std::string::npos)
+            warned = true;
+        CHECK(warned);
+      }
 }
 
 TEST_CASE("msh: lying counts and missing nodes are InputErrors with a location") {
