@@ -27,16 +27,48 @@ double angle_deg(const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
   return std::atan2(u.cross(v).norm(), u.dot(v)) * 180.0 / std::numbers::pi;
 }
 
+/// Largest angle of face f in degrees (180 for a face of zero area).
+double largest_angle_deg(const Mesh& mesh, int f) {
+  double largest = 0;
+  for (int j = 0; j < 3; ++j) {
+    const Eigen::Vector3d p = mesh.V.row(mesh.F(f, j));
+    const Eigen::Vector3d u = Eigen::Vector3d(mesh.V.row(mesh.F(f, (j + 1) % 3))) - p;
+    const Eigen::Vector3d v = Eigen::Vector3d(mesh.V.row(mesh.F(f, (j + 2) % 3))) - p;
+    largest = std::max(largest, u.norm() > 0 && v.norm() > 0 ? angle_deg(u, v) : 180.0);
+  }
+  return largest;
+}
+
+/// True when face f is a cap (largest angle above `cap_deg`) whose normal every edge neighbour
+/// contradicts by more than `tilt_deg`: its corners do not fix its normal. A cap in a fan of a
+/// flat or gently curved face agrees with a neighbour of that face, even on the face's rim.
+bool unreliable_cap(const Mesh& mesh, const Topology& T, int f, double cap_deg, double tilt_deg) {
+  if (largest_angle_deg(mesh, f) <= cap_deg) return false;
+  for (int j = 0; j < 3; ++j) {
+    const auto& ef = T.edge_faces[T.FE(f, j)];
+    if (ef.size() == 2 && angle_deg(face_normal(mesh, ef[0]), face_normal(mesh, ef[1])) <= tilt_deg) return false;
+  }
+  return true;
+}
+
 /// Kink angle in degrees along interior edge e: a Gaussian-weighted least-squares fit of
 /// z = quadric(x, y) + k |y| + k' x |y|, in the frame (x along the edge, y across it, z along the
-/// mean normal) scaled by the edge length, to the vertices of three face rings around the edge
+/// mean of its two unit face normals, or for an edge of an unreliable cap the area-weighted normal
+/// of the faces at its ends) scaled by the edge length, to the vertices of three face rings around the edge
 /// grown without crossing the edges in `wall` (features already found); returns 2 atan|k|.
-double kink_angle_deg(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e) {
+double kink_angle_deg(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e, bool cap) {
   const int a = T.E(e, 0), b = T.E(e, 1);
   const Eigen::Vector3d pa = mesh.V.row(a), pb = mesh.V.row(b);
   const double h = (pb - pa).norm();
-  Eigen::Vector3d n = face_normal(mesh, T.edge_faces[e][0]).normalized() +
-                      face_normal(mesh, T.edge_faces[e][1]).normalized();
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  if (!cap) {
+    n = face_normal(mesh, T.edge_faces[e][0]).normalized() + face_normal(mesh, T.edge_faces[e][1]).normalized();
+  } else {
+    for (int v : {a, b}) {
+      auto [fb, fe] = T.faces_of(v);
+      for (const int* f = fb; f != fe; ++f) n += face_normal(mesh, *f);
+    }
+  }
   if (!(h > 0) || !(n.norm() > 1e-12)) return 0.0;
   n.normalize();
   Eigen::Vector3d t = pb - pa;
@@ -97,7 +129,13 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
   // kink test confirms, with the first ones as walls its stencils do not cross.
   std::vector<char> only_sharp(ne, 0);  // feature only because of its dihedral angle
   std::vector<double> theta(ne, 0.0);
+  std::vector<char> cap(ne, 0);  // an edge of an unreliable cap: the kink test decides
   const bool dihedral = opt.angle_deg < 180;
+  const bool kink_test = dihedral && opt.weak_angle_deg < opt.angle_deg;
+  std::vector<char> face_cap(mesh.num_faces(), 0);
+  if (kink_test)
+    for (int f = 0; f < mesh.num_faces(); ++f)
+      face_cap[f] = unreliable_cap(mesh, T, f, opt.cap_angle_deg, opt.cap_tilt_deg);
   for (int e = 0; e < ne; ++e) {
     const auto& ef = T.edge_faces[e];
     bool feat = false;
@@ -111,7 +149,8 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
         if (opt.entity_borders) feat = true;
       }
       theta[e] = angle_deg(face_normal(mesh, ef[0]), face_normal(mesh, ef[1]));
-      if (dihedral && theta[e] > opt.angle_deg) {
+      cap[e] = face_cap[ef[0]] || face_cap[ef[1]];
+      if (dihedral && theta[e] > opt.angle_deg && !cap[e]) {
         ++R.sharp_edges;
         only_sharp[e] = !feat;
         feat = true;
@@ -119,12 +158,14 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
     }
     R.edge_feature[e] = feat;
   }
-  if (dihedral && opt.weak_angle_deg < opt.angle_deg) {
+  if (kink_test) {
     const std::vector<char> wall = R.edge_feature;
     for (int e = 0; e < ne; ++e) {
-      if (wall[e] || T.edge_faces[e].size() != 2 || theta[e] < opt.weak_angle_deg || theta[e] > opt.angle_deg) continue;
-      const double kink = kink_angle_deg(mesh, T, wall, e);
-      if (kink >= opt.kink_angle_deg && kink >= 0.5 * theta[e]) {
+      if (wall[e] || T.edge_faces[e].size() != 2 || theta[e] < opt.weak_angle_deg ||
+          (theta[e] > opt.angle_deg && !cap[e]))
+        continue;
+      const double kink = kink_angle_deg(mesh, T, wall, e, cap[e]);
+      if (kink >= opt.kink_angle_deg && (cap[e] || kink >= 0.5 * theta[e])) {
         ++R.sharp_edges, ++R.kink_edges;
         only_sharp[e] = 1;
         R.edge_feature[e] = 1;

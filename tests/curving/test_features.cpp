@@ -7,6 +7,8 @@
 
 #include <doctest/doctest.h>
 
+#include <Eigen/Geometry>
+
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -113,6 +115,78 @@ TEST_CASE("smooth closed surfaces have no features") {
     CHECK(F.curves.empty());
     CHECK(F.corners == 0);
   }
+}
+
+TEST_CASE("caps on a smooth surface make no sharp edge; caps of a flat fan keep their rim") {
+  // An icosphere where every 7th face becomes a cap (a, b, m) and two thin faces: m on the sphere
+  // near the middle of ab, 3% of the way toward c. The cap's corners are nearly collinear, so its
+  // normal leans by the arc's sagitta over its height (as iso-surface meshes' caps do).
+  Mesh m = icosphere(3);
+  const int nf = m.num_faces();
+  std::vector<Eigen::Vector3i> faces;
+  std::vector<Eigen::RowVector3d> verts;
+  for (int f = 0; f < nf; ++f) {
+    const int a = m.F(f, 0), b = m.F(f, 1), c = m.F(f, 2);
+    if (f % 7) {
+      faces.emplace_back(a, b, c);
+      continue;
+    }
+    const Eigen::RowVector3d mid = 0.5 * (m.V.row(a) + m.V.row(b));
+    const int k = m.num_vertices() + static_cast<int>(verts.size());
+    verts.push_back((mid + 0.03 * (m.V.row(c) - mid)).normalized());
+    faces.emplace_back(a, b, k);
+    faces.emplace_back(a, k, c);
+    faces.emplace_back(k, b, c);
+  }
+  Mesh capped;
+  capped.V.resize(m.num_vertices() + static_cast<int>(verts.size()), 3);
+  capped.V.topRows(m.num_vertices()) = m.V;
+  for (std::size_t i = 0; i < verts.size(); ++i) capped.V.row(m.num_vertices() + static_cast<int>(i)) = verts[i];
+  capped.F.resize(static_cast<int>(faces.size()), 3);
+  for (std::size_t i = 0; i < faces.size(); ++i) capped.F.row(static_cast<int>(i)) = faces[i].transpose();
+  FeatureOptions face_normals_only;
+  face_normals_only.cap_angle_deg = 180;
+  CHECK(detect(capped, face_normals_only).sharp_edges > 50);  // measured: 460 false sharp edges
+  const Features F = detect(capped);
+  CHECK(F.sharp_edges == 0);
+  CHECK(F.curves.empty());
+
+  // A flat top (z = 0) whose rim bows slightly in its plane, fanned from the rim's first point
+  // (caps: the far rim points are nearly collinear with it), folded at 90 degrees along the rim
+  // onto a wall strip: the caps' normals are exact, and the rim stays sharp.
+  const int n = 24;
+  Mesh fold;
+  fold.V.resize(2 * (n + 1), 3);
+  for (int i = 0; i <= n; ++i) {
+    const double t = static_cast<double>(i) / n, y = -0.01 * std::sin(std::numbers::pi * t);
+    fold.V.row(i) << t, y, 0;              // the rim
+    fold.V.row(n + 1 + i) << t, y, -0.5;  // the wall below it, tall: the kink test sees only the rim
+  }
+  std::vector<Eigen::Vector3i> ff;
+  const auto add = [&](int a, int b, int c, const Eigen::Vector3d& out) {  // oriented along `out`
+    const Eigen::Vector3d pa = fold.V.row(a), pb = fold.V.row(b), pc = fold.V.row(c);
+    if ((pb - pa).cross(pc - pa).dot(out) >= 0) ff.emplace_back(a, b, c);
+    else ff.emplace_back(a, c, b);
+  };
+  for (int i = 1; i < n; ++i) add(0, i, i + 1, Eigen::Vector3d::UnitZ());
+  for (int i = 0; i < n; ++i) {
+    add(i, i + 1, n + 1 + i, -Eigen::Vector3d::UnitY());
+    add(i + 1, n + 2 + i, n + 1 + i, -Eigen::Vector3d::UnitY());
+  }
+  fold.F.resize(static_cast<int>(ff.size()), 3);
+  for (std::size_t i = 0; i < ff.size(); ++i) fold.F.row(static_cast<int>(i)) = ff[i].transpose();
+  const Topology T = build_topology(fold.F, fold.num_vertices());
+  int caps = 0;
+  for (int i = 1; i < n; ++i) {
+    const Eigen::Vector3d p0 = fold.V.row(0), u = Eigen::Vector3d(fold.V.row(i)) - p0,
+                          v = Eigen::Vector3d(fold.V.row(i + 1)) - p0;
+    caps += std::acos(std::clamp(-u.dot(v - u) / (u.norm() * (v - u).norm()), -1.0, 1.0)) * 180 / std::numbers::pi > 150;
+  }
+  CHECK(caps > n / 2);
+  const Features G = detect(fold);
+  for (int e = 0; e < T.num_edges(); ++e)
+    if (T.edge_faces[e].size() == 2 && T.E(e, 0) <= n && T.E(e, 1) <= n && std::abs(T.E(e, 0) - T.E(e, 1)) == 1)
+      CHECK(G.edge_feature[e]);  // every rim edge
 }
 
 TEST_CASE("cube: 12 sharp curves between 8 corners") {
