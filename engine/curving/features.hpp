@@ -22,15 +22,16 @@ struct FeatureOptions {
   /// angle_deg switches the test off; angle_deg = 180 turns off every dihedral-angle feature.
   double weak_angle_deg = 20.0;
   double kink_angle_deg = 18.0;
-  /// A face with an angle above cap_angle_deg is a cap: its three corners are nearly collinear, so
-  /// they hardly fix its normal (tilted by about the longest edge's sagitta over the height; a
+  /// A face with an angle above cap_angle_deg is a cap: its three corners are nearly collinear,
+  /// so they hardly fix its normal (tilted by about the longest edge's sagitta over the height; a
   /// needle, whose largest angle is near 90 degrees, has its long edges on the surface). A cap
   /// whose normal differs by more than cap_tilt_deg from each of its edge neighbours' is
-  /// unreliable (a cap in a fan of a flat face agrees with one, even on the face's rim): the edges of unreliable caps
-  /// with a dihedral angle of at least weak_angle_deg are sharp only if the kink test (in the
-  /// frame of the area-weighted normals around the edge) finds a kink of kink_angle_deg. Iso-surface meshes (marching tetrahedra of a
-  /// sphere and a torus) have caps; their face normals made 12 and 75 sharp edges where the
-  /// surface is smooth, and P4 nodes up to 4e-3 off the sphere there (linear: 5e-3).
+  /// unreliable (a cap in a fan of a flat face agrees with one, even on the face's rim). The
+  /// edges of unreliable caps with a dihedral angle of at least weak_angle_deg are sharp only if
+  /// the kink test (in the frame of the area-weighted normals around the edge) finds a kink of
+  /// kink_angle_deg. Iso-surface meshes (marching tetrahedra of a sphere and a torus) have such
+  /// caps: their face normals made 12 and 75 sharp edges where the surface is smooth (now 2 and
+  /// 1), and P4 nodes up to 4e-3 off the sphere there (linear: 5e-3).
   double cap_angle_deg = 150.0;
   double cap_tilt_deg = 10.0;
   double corner_angle_deg = 35.0;  ///< a vertex on a single curve is a corner when the curve turns more than this
@@ -57,11 +58,11 @@ struct Features {
 
 /// Detects feature edges, chains them into curves and marks corners.
 /// An interior edge (two faces) is sharp when the angle between its two face normals, as
-/// oriented in the input, exceeds opt.angle_deg (edges of caps: FeatureOptions::cap_angle_deg) (35° by default: a 90° CAD rim is caught, a
-/// sphere discretised with >= 10 segments around is not). Boundary and non-manifold edges are
-/// always features; entity borders when opt.entity_borders. Faces of zero area have no normal
-/// and never make an edge sharp. Curves and corners are numbered deterministically (by vertex
-/// and edge index).
+/// oriented in the input, exceeds opt.angle_deg (35° by default: a 90° CAD rim is caught, a
+/// sphere discretised with >= 10 segments around is not; edges of caps: cap_angle_deg).
+/// Boundary and non-manifold edges are always features; entity borders when
+/// opt.entity_borders. Faces of zero area have no normal and never make an edge sharp. Curves
+/// and corners are numbered deterministically (by vertex and edge index).
 Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptions& opt = {});
 
 }  // namespace hocurve
