@@ -128,7 +128,9 @@ void check_manifold(const Mesh& m, const Topology& T) {
       };
       if (dir(ef[0]) == dir(ef[1]))
         throw InputError(where, name + ": faces " + std::to_string(ef[0]) + " and " + std::to_string(ef[1]) +
-                                    " have inconsistent orientation");
+                                    " have inconsistent orientation: the surface is not orientable (as a Moebius "
+                                    "band) or was not oriented (validate_mesh orients every orientable component); "
+                                    "coarsening needs one consistent side");
     }
   }
   // Vertex manifoldness: the faces around v, linked through shared edges, form one fan.

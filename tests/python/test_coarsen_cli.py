@@ -10,7 +10,8 @@ edge's node set is shared by exactly two elements, since the torus is closed); e
 the exact torus closer than the dense input's own facets do (facet-centre distance); the stats
 report 0 invalid elements. Also --ratio with msh22 binary, a raw Thingi10K file with non-manifold
 vertices (split and coarsened), a cube with an inner wall (non-manifold edges: cut, coarsened,
-joined again), and usage errors (exit 2) / refused input (exit 3) leave no output file.
+joined again), and usage errors (exit 2) / refused input (exit 3: empty, a Moebius band) leave no
+output file.
 
 Usage: test_coarsen_cli.py BUILD_DIR
 """
@@ -208,6 +209,26 @@ def main(argv):
     r = subprocess.run([hoc, "coarsen", empty, "-o", bad, "--order", "4", "--faces", "100"], capture_output=True,
                        text=True, timeout=60)
     check(r.returncode == 3 and not os.path.exists(bad), "empty input: exit %d, no output" % r.returncode)
+    # A Moebius band (60 x 6 grid, the last column joined to the first upside down): not orientable.
+    n, m = 60, 6
+    lines = []
+    for i in range(n):
+        t = 2 * math.pi * i / n
+        for j in range(m):
+            w = -0.3 + 0.6 * j / (m - 1)
+            lines.append("v %.12g %.12g %.12g" % ((1 + w * math.cos(t / 2)) * math.cos(t),
+                                                   (1 + w * math.cos(t / 2)) * math.sin(t), w * math.sin(t / 2)))
+    idx = lambda i, j: (m - 1 - j) if i == n else i * m + j
+    for i in range(n):
+        for j in range(m - 1):
+            a, b, c, d = idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)
+            lines += ["f %d %d %d" % (a + 1, b + 1, c + 1), "f %d %d %d" % (a + 1, c + 1, d + 1)]
+    band = os.path.join(work, "moebius.obj")
+    open(band, "w").write("\n".join(lines) + "\n")
+    r = subprocess.run([hoc, "coarsen", band, "-o", bad, "--order", "4", "--ratio", "0.1"], capture_output=True,
+                       text=True, timeout=60)
+    check(r.returncode == 3 and "not orientable" in r.stderr and not os.path.exists(bad),
+          "Moebius band: exit %d, says why (%s), no output" % (r.returncode, r.stderr.strip()[:80]))
 
     print("%d failure(s)" % len(failures))
     return 1 if failures else 0
