@@ -15,8 +15,11 @@ namespace hocurve {
 struct PlanarPatchOptions {
   bool enabled = true;
   /// Faces joined by an edge whose dihedral angle is below this (radians) are coplanar. Float32 CAD
-  /// exports are coplanar to ~1e-7; smooth meshes reach 1e-4 only where they are flat anyway.
-  double coplanar_angle = 1e-4;
+  /// exports are coplanar to ~1e-6 (the shared CAD meshes keep their patches and deviations at
+  /// 1e-6). Curved meshes have such pairs only by chance: a marching-tetrahedra sphere (12,868
+  /// triangles) had one quad at 5.3e-5 among slivers 6x smaller, flattened 1.7e-3 off the sphere
+  /// (P4 elsewhere: 7e-6) with 1e-4.
+  double coplanar_angle = 1e-5;
   /// A patch of at least two coplanar faces qualifies when its smallest face is at least this many
   /// times larger than every face bordering it. Why: the strips of a CAD cylinder are planar
   /// pairs too, but bordered by strips of their own size.
