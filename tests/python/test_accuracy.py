@@ -5,7 +5,8 @@ Shapes: unit sphere (h=0.1, ~3.2k triangles) and torus R=1, r=0.4 (h=0.2, ~1k tr
 Gmsh from exact OCC CAD and written as binary STL. hocurve curves them to P4; bench/measure_error.py
 samples every element's Lagrange map (Gmsh basis functions) and measures the exact distance.
 
-Also an abruptly graded sphere (h = 0.2, and 0.025 for x > 0.3): its long edges keep their fits.
+Also an abruptly graded sphere (h = 0.2, and 0.025 for x > 0.3): its long edges keep their fits; and
+a marching-tetrahedra sphere (caps and slivers): no false feature or planar patch, P4 >= 1000x below linear.
 
 Asserts: output reads back with Gmsh as a single block of type-23 triangles, one per input triangle,
 watertight/conforming (every edge's node set shared by exactly two elements), no element with a
@@ -21,7 +22,7 @@ import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
-from bench import accuracy, shapes  # noqa: E402
+from bench import accuracy, isosurface, shapes  # noqa: E402
 from bench import measure_error as me  # noqa: E402
 
 failures = []
@@ -102,6 +103,29 @@ def check_graded(hoc, work):
           "graded sphere: P4 error %.3e at least 1000x below linear %.3e, as without long edges" % (m["max"], lin["max"]))
 
 
+def check_isosurface(hoc, work):
+    """A marching-tetrahedra sphere (grid 32, 12,868 triangles, vertices on the sphere, edge lengths
+    p99/p1 = 107): its caps made 7 false sharp edges and a quad coplanar by chance was flattened as a
+    CAD planar face (P4 1.7e-3). Now: no feature, no planar patch, P4 >= 1000x below linear."""
+    f, half = isosurface.SHAPES["sphere"]
+    V, T = isosurface.marching_tetrahedra(f, half, 32)
+    stl = os.path.join(work, "sphere_mt32.stl")
+    isosurface.write_stl(stl, isosurface.onto_surface(f, V), T, f)
+    out = os.path.join(work, "sphere_mt32_p4.msh")
+    r = accuracy.run_hocurve(hoc, stl, out, 4, out + ".json", timeout=300)
+    check(r["rc"] == 0, "iso-surface sphere: hocurve curve --order 4 exits 0 (rc %s)" % r["rc"])
+    if r["rc"] != 0:
+        return
+    c = r["stats"]["curving"]
+    lin, m = me.measure(stl, "sphere"), me.measure(out, "sphere")
+    check(c["features"]["sharp_edges"] == 0 and c["placement"]["planar_faces"] == 0,
+          "iso-surface sphere: %d sharp edges, %d planar faces (smooth: none)" % (
+              c["features"]["sharp_edges"], c["placement"]["planar_faces"]))
+    check(m["max"] * 1000 <= lin["max"] and m["nonpositive_jacobian"] == 0 and m["watertight"],
+          "iso-surface sphere: P4 %.3e, linear %.3e (%.0fx), valid, watertight" % (
+              m["max"], lin["max"], lin["max"] / max(m["max"], 1e-300)))
+
+
 def main(argv):
     build = argv[1] if len(argv) > 1 else os.environ.get("HOCURVE_BUILD_DIR", "build")
     hoc = os.path.join(build, "hocurve")
@@ -111,6 +135,7 @@ def main(argv):
     work = tempfile.mkdtemp(prefix="hocurve-acc-")
     check_harness(work)
     check_graded(hoc, work)
+    check_isosurface(hoc, work)
     # (shape, size, strict): strict = the brief's targets (>= 1000x below linear, <= 10x Gmsh's
     # exact-CAD P4); the coarse torus (h = r/2) only has to beat the linear input by 4x.
     cases = [("sphere", 0.1, True), ("torus", 0.2, False)]
