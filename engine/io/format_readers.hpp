@@ -4,7 +4,9 @@
 #pragma once
 #include "engine/io/read_mesh.hpp"
 
+#include <Eigen/Core>
 #include <string>
+#include <vector>
 #include <string_view>
 
 namespace hocurve::io_detail {
@@ -19,6 +21,11 @@ void read_msh(std::string_view bytes, const std::string& name, ReadResult& out);
 /// Nodes per element of a Gmsh element type (0 = unknown); binary .msh files need it to step over
 /// elements.
 int msh_nodes_per_element(int type);
+
+/// Appends the triangles of polygon `poly` (indices into V, which must hold its corners' positions;
+/// validated by the caller): a quadrangle is cut along its shorter diagonal, a larger polygon is
+/// fan-split around its first corner, fewer than 3 corners add nothing.
+void split_polygon(const Eigen::MatrixXd& V, const std::vector<long long>& poly, std::vector<int>& tri);
 
 /// Throws InputError naming the first vertex with a NaN/Inf coordinate.
 void check_finite_vertices(const Mesh& mesh, const std::string& name);

@@ -453,35 +453,22 @@ void read_msh(std::string_view b, const std::string& name, ReadResult& out) {
     sparse_map.reserve(nn);
     for (std::size_t i = 0; i < nn; ++i) sparse_map[d.node_tags[i]] = static_cast<int>(i);
   }
-  const auto node_index = [&](std::uint64_t t, const std::string& element) {
+  // Element `kind` number `element`'s node tag t -> index into d.node_tags.
+  const auto node_index = [&](std::uint64_t t, const char* kind, std::size_t element) {
     int i = -1;
     if (dense) { if (t < dense_map.size()) i = dense_map[t]; }
     else if (auto it = sparse_map.find(t); it != sparse_map.end()) i = it->second;
-    if (i < 0) throw InputError(name + ": " + element, "node tag " + std::to_string(t) + " is not defined in $Nodes");
+    if (i < 0)
+      throw InputError(name + ": " + kind + " " + std::to_string(element),
+                       "node tag " + std::to_string(t) + " is not defined in $Nodes");
     return i;
   };
-  std::vector<int> node_of(d.tri.size());
-  for (std::size_t k = 0; k < d.tri.size(); ++k) node_of[k] = node_index(d.tri[k], "triangle " + std::to_string(k / 3));
-  // Quadrangles become two triangles each, cut along their shorter diagonal (the better-shaped pair).
-  for (std::size_t q = 0; q < d.quad_entity.size(); ++q) {
-    int c4[4];
-    for (int j = 0; j < 4; ++j) c4[j] = node_index(d.quad[4 * q + j], "quadrangle " + std::to_string(q));
-    const auto dist2 = [&](int a, int b) {
-      double s2 = 0;
-      for (int k = 0; k < 3; ++k) s2 += (d.xyz[3 * a + k] - d.xyz[3 * b + k]) * (d.xyz[3 * a + k] - d.xyz[3 * b + k]);
-      return s2;
-    };
-    const bool cut02 = dist2(c4[0], c4[2]) <= dist2(c4[1], c4[3]);
-    const int split[2][3] = {{0, 1, cut02 ? 2 : 3}, {cut02 ? 0 : 1, 2, 3}};
-    for (const auto& t : split) {
-      for (int j : t) node_of.push_back(c4[j]);
-      d.tri_entity.push_back(d.quad_entity[q]);
-      d.tri_phys.push_back(d.quad_phys[q]);
-    }
-  }
-  const std::size_t nt = d.tri_entity.size();
+  std::vector<int> node_of(d.tri.size()), quad_of(d.quad.size());
+  for (std::size_t k = 0; k < d.tri.size(); ++k) node_of[k] = node_index(d.tri[k], "triangle", k / 3);
+  for (std::size_t k = 0; k < d.quad.size(); ++k) quad_of[k] = node_index(d.quad[k], "quadrangle", k / 4);
   std::vector<int> new_index(nn, -1);
   for (int i : node_of) new_index[i] = 0;
+  for (int i : quad_of) new_index[i] = 0;
   int nv = 0;
   for (auto& x : new_index) if (x == 0) x = nv++;
   Mesh& m = out.mesh;
@@ -489,10 +476,23 @@ void read_msh(std::string_view b, const std::string& name, ReadResult& out) {
   for (std::size_t i = 0; i < nn; ++i)
     if (new_index[i] >= 0)
       for (int k = 0; k < 3; ++k) m.V(new_index[i], k) = d.xyz[3 * i + k];
+  std::vector<int> tri(node_of.size());
+  for (std::size_t k = 0; k < node_of.size(); ++k) tri[k] = new_index[node_of[k]];
+  // Quadrangles become two triangles each, cut along their shorter diagonal.
+  std::vector<long long> poly(4);
+  for (std::size_t q = 0; q < d.quad_entity.size(); ++q) {
+    for (int j = 0; j < 4; ++j) poly[j] = new_index[quad_of[4 * q + j]];
+    split_polygon(m.V, poly, tri);
+    for (int t = 0; t < 2; ++t) {
+      d.tri_entity.push_back(d.quad_entity[q]);
+      d.tri_phys.push_back(d.quad_phys[q]);
+    }
+  }
+  const std::size_t nt = d.tri_entity.size();
   m.F.resize(static_cast<Eigen::Index>(nt), 3);
   m.face_entity.resize(static_cast<Eigen::Index>(nt));
   for (std::size_t f = 0; f < nt; ++f) {
-    for (int j = 0; j < 3; ++j) m.F(f, j) = new_index[node_of[3 * f + j]];
+    for (int j = 0; j < 3; ++j) m.F(f, j) = tri[3 * f + j];
     m.face_entity[f] = d.tri_entity[f];
   }
 

@@ -82,6 +82,7 @@ void read_obj(std::string_view bytes, const std::string& name, ReadResult& out) 
   for (std::size_t v = 0; v < nv; ++v)
     for (int d = 0; d < 3; ++d) m.V(v, d) = static_cast<double>(attrib.vertices[3 * v + d]);
   std::vector<int> tri;
+  std::vector<long long> poly;
   long long face = 0, polygons = 0, small = 0, points_lines = 0;
   for (const auto& sh : shapes) {
     std::size_t k = 0;
@@ -96,11 +97,9 @@ void read_obj(std::string_view bytes, const std::string& name, ReadResult& out) 
       }
       if (n < 3) ++small;
       if (n > 3) ++polygons;
-      for (int c = 1; c + 1 < n; ++c) {  // fan around the polygon's first corner
-        tri.push_back(sh.mesh.indices[k].vertex_index);
-        tri.push_back(sh.mesh.indices[k + c].vertex_index);
-        tri.push_back(sh.mesh.indices[k + c + 1].vertex_index);
-      }
+      poly.clear();
+      for (int c = 0; c < n; ++c) poly.push_back(sh.mesh.indices[k + c].vertex_index);
+      split_polygon(m.V, poly, tri);
       k += n;
       ++face;
     }
@@ -110,7 +109,7 @@ void read_obj(std::string_view bytes, const std::string& name, ReadResult& out) 
   for (std::size_t f = 0; f < tri.size() / 3; ++f)
     for (int j = 0; j < 3; ++j) m.F(f, j) = tri[3 * f + j];
   if (polygons) out.report.warnings.push_back(name + ": " + std::to_string(polygons) +
-                                              " polygons with more than 3 corners were fan-split into triangles");
+                                              " polygons with more than 3 corners were split into triangles (quadrangles along their shorter diagonal)");
   if (small) out.report.warnings.push_back(name + ": " + std::to_string(small) + " faces with fewer than 3 corners ignored");
   if (points_lines) out.report.warnings.push_back(name + ": " + std::to_string(points_lines) + " point/line elements ignored");
 }

@@ -59,14 +59,13 @@ void read_off(std::string_view b, const std::string& name, ReadResult& out) {
     sc.next_line();  // optional colour
     if (n < 3) { ++small; continue; }
     if (n > 3) ++polygons;
-    for (long long c = 1; c + 1 < n; ++c)
-      tri.insert(tri.end(), {static_cast<int>(poly[0]), static_cast<int>(poly[c]), static_cast<int>(poly[c + 1])});
+    split_polygon(m.V, poly, tri);
   }
   m.F.resize(static_cast<Eigen::Index>(tri.size() / 3), 3);
   for (std::size_t f = 0; f < tri.size() / 3; ++f)
     for (int j = 0; j < 3; ++j) m.F(f, j) = tri[3 * f + j];
   if (polygons) out.report.warnings.push_back(name + ": " + std::to_string(polygons) +
-                                              " polygons with more than 3 corners were fan-split into triangles");
+                                              " polygons with more than 3 corners were split into triangles (quadrangles along their shorter diagonal)");
   if (small) out.report.warnings.push_back(name + ": " + std::to_string(small) + " faces with fewer than 3 corners ignored");
 }
 

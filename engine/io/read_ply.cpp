@@ -192,8 +192,7 @@ void read_ply(std::string_view b, const std::string& name, ReadResult& out) {
                              std::to_string(nv) + " vertices)");
     if (poly.size() < 3) { ++small; return; }
     if (poly.size() > 3) ++polygons;
-    for (std::size_t c = 1; c + 1 < poly.size(); ++c)
-      tri.insert(tri.end(), {static_cast<int>(poly[0]), static_cast<int>(poly[c]), static_cast<int>(poly[c + 1])});
+    split_polygon(m.V, poly, tri);
   };
   std::vector<long long> poly;
 
@@ -269,7 +268,7 @@ void read_ply(std::string_view b, const std::string& name, ReadResult& out) {
     for (int j = 0; j < 3; ++j) m.F(f, j) = tri[3 * f + j];
   out.report.format = format == "ascii" ? "ply-ascii" : "ply-binary";
   if (polygons) out.report.warnings.push_back(name + ": " + std::to_string(polygons) +
-                                              " polygons with more than 3 corners were fan-split into triangles");
+                                              " polygons with more than 3 corners were split into triangles (quadrangles along their shorter diagonal)");
   if (small) out.report.warnings.push_back(name + ": " + std::to_string(small) + " faces with fewer than 3 corners ignored");
 }
 

@@ -127,7 +127,7 @@ TEST_CASE("weld_exact: -0 equals +0, nothing else is merged") {
   for (int i = 0; i < 60000; ++i) REQUIRE(wg.index[i] == i % 20000);
 }
 
-TEST_CASE("OBJ: fan-split polygons, negative indices, double precision") {
+TEST_CASE("OBJ: split polygons, negative indices, double precision") {
   const std::string text =
       "# quad and pentagon\nmtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.1234567890123456789 2 0\n"
       "usemtl x\ng quad\nf 1 2 3 4\ng tri\nf -3 -2 -1\nl 1 2\n";
@@ -144,6 +144,21 @@ TEST_CASE("OBJ: fan-split polygons, negative indices, double precision") {
   CHECK(o.report.gzip);
   CHECK(o.mesh.V == m.V);
   CHECK(o.mesh.F == m.F);
+}
+
+TEST_CASE("OBJ and OFF quadrangles are cut along their shorter diagonal, larger polygons fan-split") {
+  // Corners 1 and 3 are closer than 0 and 2: the cut joins 1-3; the pentagon fans from corner 0.
+  const std::string obj = "v 0 0 0\nv 3 0 0\nv 3.5 1 0\nv 0.5 1 0\nv 1.5 2 0\nf 1 2 3 4\nf 1 2 3 5 4\n";
+  const ReadResult r = read_mesh_bytes(obj, "skew.obj");
+  REQUIRE(r.mesh.num_faces() == 5);
+  Eigen::MatrixXi F(5, 3);
+  F << 0, 1, 3, 1, 2, 3, 0, 1, 2, 0, 2, 4, 0, 4, 3;
+  CHECK(r.mesh.F == F);
+  const std::string off = "OFF\n4 1 0\n0 0 0\n3 0 0\n3.5 1 0\n0.5 1 0\n4 0 1 2 3\n";
+  const ReadResult o = read_mesh_bytes(off, "skew.off");
+  REQUIRE(o.mesh.num_faces() == 2);
+  CHECK(o.mesh.F.row(0) == Eigen::RowVector3i(0, 1, 3));
+  CHECK(o.mesh.F.row(1) == Eigen::RowVector3i(1, 2, 3));
 }
 
 TEST_CASE("OFF: comments, counts on the header line, quads, colours") {
