@@ -27,6 +27,9 @@ int msh_nodes_per_element(int type);
 /// fan-split around its first corner, fewer than 3 corners add nothing.
 void split_polygon(const Eigen::MatrixXd& V, const std::vector<long long>& poly, std::vector<int>& tri);
 
+/// The warning that `polygons` faces of file `name` had more than 3 corners.
+std::string polygons_warning(const std::string& name, long long polygons);
+
 /// Throws InputError naming the first vertex with a NaN/Inf coordinate.
 void check_finite_vertices(const Mesh& mesh, const std::string& name);
 

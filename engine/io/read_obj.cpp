@@ -108,8 +108,7 @@ void read_obj(std::string_view bytes, const std::string& name, ReadResult& out) 
   m.F.resize(static_cast<Eigen::Index>(tri.size() / 3), 3);
   for (std::size_t f = 0; f < tri.size() / 3; ++f)
     for (int j = 0; j < 3; ++j) m.F(f, j) = tri[3 * f + j];
-  if (polygons) out.report.warnings.push_back(name + ": " + std::to_string(polygons) +
-                                              " polygons with more than 3 corners were split into triangles (quadrangles along their shorter diagonal)");
+  if (polygons) out.report.warnings.push_back(polygons_warning(name, polygons));
   if (small) out.report.warnings.push_back(name + ": " + std::to_string(small) + " faces with fewer than 3 corners ignored");
   if (points_lines) out.report.warnings.push_back(name + ": " + std::to_string(points_lines) + " point/line elements ignored");
 }

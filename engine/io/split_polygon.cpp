@@ -18,4 +18,9 @@ void split_polygon(const Eigen::MatrixXd& V, const std::vector<long long>& poly,
   for (std::size_t c = 1; c + 1 < n; ++c) tri.insert(tri.end(), {corner(0), corner(c), corner(c + 1)});
 }
 
+std::string polygons_warning(const std::string& name, long long polygons) {
+  return name + ": " + std::to_string(polygons) +
+         " polygons with more than 3 corners were split into triangles (quadrangles along their shorter diagonal)";
+}
+
 }  // namespace hocurve::io_detail
