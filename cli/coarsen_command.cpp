@@ -32,6 +32,7 @@ const std::vector<OptionSpec> kCoarsenOptions = {
     {"threads", true, "worker threads (default: all cores)"},
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
     {"max-deviation", true, "refuse collapses moving a dense vertex > F x diagonal off the coarse faces (default 0.015; 0: off)"},
+    {"long-edge-ratio", true, "dense edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
     {"progress", false, "print progress as JSON lines on stdout"},
     {"help", false, "show this help", 'h'},
 };
@@ -40,7 +41,7 @@ const char* kCoarsenUsage =
     "usage: hocurve coarsen INPUT -o OUTPUT.msh --order P (--faces N | --ratio R)\n"
     "                       [--nodes equispaced|lobatto] [--format msh41|msh22] [--binary]\n"
     "                       [--stats STATS.json] [--threads N] [--feature-angle DEG]\n"
-    "                       [--max-deviation F] [--progress]\n"
+    "                       [--max-deviation F] [--long-edge-ratio R] [--progress]\n"
     "Decimates a linear triangle surface mesh to N triangles (or R x its count), keeping feature\n"
     "curves, and curves the coarse triangles to order P so that they stay on the dense surface.\n";
 
@@ -138,6 +139,7 @@ int run_coarsen(int argc, char** argv) {
   lopt.order = static_cast<int>(a.get_int("order", 4, 2, 6));
   lopt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
   lopt.features = feature_options(dopt);
+  lopt.long_edges.ratio = a.get_double("long-edge-ratio", lopt.long_edges.ratio, 0.0, 1e9);
   MshOptions msh;
   msh.version = a.get_choice("format", "msh41", {"msh41", "msh22"}) == "msh22" ? MshOptions::Version::V22
                                                                               : MshOptions::Version::V41;

@@ -412,7 +412,7 @@ void install_routes(httplib::Server& svr, App& app) {
                {"api_version", "1.0.0"},
                {"orders", orders},
                {"modes", {"curve", "coarsen"}},
-               {"nodes", {"lobatto", "equispaced"}},
+               {"nodes", {"equispaced", "lobatto"}},
                {"input_formats", {"stl", "obj", "ply", "off", "msh", "gzip"}},
                {"output_formats", {"msh41", "msh22"}},
                {"limits",

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Usage: submit.sh MESH [option=value ...]   e.g. submit.sh part.stl order=4 nodes=lobatto
+# Usage: submit.sh MESH [option=value ...]   e.g. submit.sh part.stl order=4 format=msh22
 # Uploads MESH as the raw body (streamed by the server to disk) and prints the new job id.
 # IDEMPOTENCY_KEY=... makes retries safe (same key and body -> same job).
 set -euo pipefail
