@@ -95,7 +95,7 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
   }
   out["mode"] = mode;
 
-  long long order = 3;
+  long long order = kDefaultOrder;
   if (raw.contains("order")) {
     if (!parse_int(raw["order"], order) || order < kMinOrder || order > kMaxOrder)
       err.add("order", "order must be an integer from " + std::to_string(kMinOrder) + " to " +
@@ -174,7 +174,7 @@ std::vector<std::string> worker_argv(const std::string& program, const nlohmann:
     return std::string(buf);
   };
   std::vector<std::string> a = {program, o.value("mode", "curve"), input, "-o", output, "--order",
-                                std::to_string(o.value("order", 3))};
+                                std::to_string(o.value("order", kDefaultOrder))};
   if (o.value("mode", "curve") == "coarsen") {
     if (o.contains("faces")) a.insert(a.end(), {"--faces", std::to_string(o["faces"].get<long long>())});
     if (o.contains("ratio")) a.insert(a.end(), {"--ratio", number("ratio")});

@@ -9,6 +9,7 @@ namespace hocurve::server {
 
 inline constexpr int kMinOrder = 2;
 inline constexpr int kMaxOrder = 6;
+inline constexpr int kDefaultOrder = 4;  ///< the CLI's default too
 
 /// Validates raw options (every value may be a string, as from a query string, or a JSON scalar)
 /// and returns them normalised with defaults filled:

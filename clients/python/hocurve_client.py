@@ -220,12 +220,14 @@ def main(argv=None):
     s.add_argument("mesh")
     s.add_argument("--mode", choices=["curve", "coarsen"])
     s.add_argument("--order", type=int)
-    s.add_argument("--nodes", choices=["lobatto", "equispaced"])
+    s.add_argument("--nodes", choices=["equispaced", "lobatto"])
     s.add_argument("--format", choices=["msh41", "msh22"])
     s.add_argument("--binary", action="store_true")
     s.add_argument("--faces", type=int)
     s.add_argument("--ratio", type=float)
     s.add_argument("--max-deviation", type=float, dest="max_deviation")
+    s.add_argument("--feature-angle", type=float, dest="feature_angle")
+    s.add_argument("--long-edge-ratio", type=float, dest="long_edge_ratio")
     s.add_argument("--idempotency-key")
     s.add_argument("--wait", action="store_true", help="wait with a progress bar")
     s.add_argument("-o", "--output", help="with --wait: download the result here")
@@ -248,7 +250,8 @@ def main(argv=None):
     out = sys.stdout
     try:
         if args.cmd == "submit":
-            opts = {k: getattr(args, k) for k in ("mode", "order", "nodes", "format", "faces", "ratio", "max_deviation")
+            opts = {k: getattr(args, k) for k in ("mode", "order", "nodes", "format", "faces", "ratio", "max_deviation",
+                                                  "feature_angle", "long_edge_ratio")
                     if getattr(args, k) is not None}
             if args.binary:
                 opts["binary"] = True

@@ -205,11 +205,13 @@ class ServerApi(unittest.TestCase):
         self.assertEqual(st, 200, body[:300])
         self.assertIn("attachment", h["content-disposition"])
         self.assertTrue(body.startswith(b"$MeshFormat"))
-        # The daemon's defaults are the CLI's: the same bytes as `hocurve curve --order 2` (equispaced
-        # nodes, where Gmsh reads them; the daemon defaulted to Lobatto nodes before session 8).
+        # The daemon's defaults are the CLI's: with no options, the same bytes as `hocurve curve` (P4,
+        # equispaced nodes where Gmsh reads them; before session 8 the daemon gave P3 on Lobatto nodes).
+        st, h, body = raw(self.d.url, "POST", "/v1/curve", MESH_SPHERE, {"Content-Type": "model/stl"})
+        self.assertEqual(st, 200, body[:300])
         with tempfile.TemporaryDirectory() as tmp:
             out = os.path.join(tmp, "cli.msh")
-            subprocess.run([os.path.join(BUILD_DIR, "hocurve"), "curve", SPHERE, "-o", out, "--order", "2"], check=True)
+            subprocess.run([os.path.join(BUILD_DIR, "hocurve"), "curve", SPHERE, "-o", out], check=True)
             self.assertEqual(body, data(out))
         # Sync jobs are not listed and are gone afterwards.
         self.assertNotIn(h["x-job-id"], [j["id"] for j in self.c.list()])

@@ -45,7 +45,7 @@ std::string temp_dir(const char* name) {
 
 TEST_CASE("options: defaults are filled and strings from a query are typed") {
   json o = normalise_options(json::object());
-  CHECK(o == json({{"mode", "curve"}, {"order", 3}, {"nodes", "equispaced"}, {"format", "msh41"}, {"binary", false}}));
+  CHECK(o == json({{"mode", "curve"}, {"order", 4}, {"nodes", "equispaced"}, {"format", "msh41"}, {"binary", false}}));
   o = normalise_options({{"order", "5"}, {"binary", "1"}, {"nodes", "equispaced"}, {"format", "msh22"}});
   CHECK(o["order"] == 5);
   CHECK(o["binary"] == true);
@@ -94,15 +94,15 @@ TEST_CASE("worker command line follows the CLI contract") {
   CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "2", "--faces", "500", "--stats", "s",
                                       "--progress"});
   a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"ratio", 0.5}, {"max_deviation", 0.02}}), "i", "o", "s", 1);
-  CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "3", "--ratio", "0.5",
+  CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "4", "--ratio", "0.5",
                                       "--max-deviation", "0.02", "--stats", "s", "--progress"});
   // The feature threshold and the long-edge rule, in both modes; refused out of range.
   a = worker_argv("h", normalise_options({{"feature_angle", "40"}, {"long_edge_ratio", 0}}), "i", "o", "s", 1);
-  CHECK(a == std::vector<std::string>{"h", "curve", "i", "-o", "o", "--order", "3", "--nodes", "equispaced", "--format",
+  CHECK(a == std::vector<std::string>{"h", "curve", "i", "-o", "o", "--order", "4", "--nodes", "equispaced", "--format",
                                       "msh41", "--threads", "1", "--feature-angle", "40", "--long-edge-ratio", "0",
                                       "--stats", "s", "--progress"});
   a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"faces", 50}, {"long_edge_ratio", 3.5}}), "i", "o", "s", 1);
-  CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "3", "--faces", "50",
+  CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "4", "--faces", "50",
                                       "--long-edge-ratio", "3.5", "--stats", "s", "--progress"});
   CHECK_THROWS_AS(normalise_options({{"feature_angle", 181}}), ApiError);
   CHECK_THROWS_AS(normalise_options({{"feature_angle", "sharp"}}), ApiError);
