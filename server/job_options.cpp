@@ -102,19 +102,16 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
                            std::to_string(kMaxOrder) + ", got " + as_text(raw["order"]));
   }
   out["order"] = order;
+  // An optional number `key` that ok() accepts; `what` words the accepted values for the error.
+  const auto number = [&](const char* key, bool (*ok)(double), const char* what) {
+    if (!raw.contains(key)) return;
+    double x = 0;
+    if (!parse_double(raw[key], x) || !ok(x)) err.add(key, std::string(key) + " must be " + what + ", got " + as_text(raw[key]));
+    out[key] = x;
+  };
   // Both modes: the feature threshold and the long-edge rule of the dense fits.
-  if (raw.contains("feature_angle")) {
-    double deg = 0;
-    if (!parse_double(raw["feature_angle"], deg) || !(deg >= 0 && deg <= 180))
-      err.add("feature_angle", "feature_angle must be a number of degrees in [0, 180], got " + as_text(raw["feature_angle"]));
-    out["feature_angle"] = deg;
-  }
-  if (raw.contains("long_edge_ratio")) {
-    double r = 0;
-    if (!parse_double(raw["long_edge_ratio"], r) || !(r >= 0 && r <= 1e9))
-      err.add("long_edge_ratio", "long_edge_ratio must be a number >= 0 (0: off), got " + as_text(raw["long_edge_ratio"]));
-    out["long_edge_ratio"] = r;
-  }
+  number("feature_angle", [](double x) { return x >= 0 && x <= 180; }, "a number of degrees in [0, 180]");
+  number("long_edge_ratio", [](double x) { return x >= 0 && x <= 1e9; }, "a number >= 0 (0: off)");
 
   if (mode == "coarsen") {
     for (const char* k : {"nodes", "format", "binary"})
@@ -127,18 +124,8 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
         err.add("faces", "faces must be an integer from 4 to 1e8, got " + as_text(raw["faces"]));
       out["faces"] = faces;
     }
-    if (has_ratio) {
-      double ratio = 0;
-      if (!parse_double(raw["ratio"], ratio) || !(ratio > 0 && ratio <= 1))
-        err.add("ratio", "ratio must be a number in (0, 1], got " + as_text(raw["ratio"]));
-      out["ratio"] = ratio;
-    }
-    if (raw.contains("max_deviation")) {
-      double dev = 0;
-      if (!parse_double(raw["max_deviation"], dev) || !(dev >= 0 && dev <= 1))
-        err.add("max_deviation", "max_deviation must be a number in [0, 1] (0: no limit), got " + as_text(raw["max_deviation"]));
-      out["max_deviation"] = dev;
-    }
+    number("ratio", [](double x) { return x > 0 && x <= 1; }, "a number in (0, 1]");
+    number("max_deviation", [](double x) { return x >= 0 && x <= 1; }, "a number in [0, 1] (0: no limit)");
   } else {
     for (const char* k : {"faces", "ratio", "max_deviation"})
       if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=coarsen only");
