@@ -227,9 +227,60 @@ double LocalFit::height(double u, double v) const {
   return s * h;
 }
 
-Eigen::Vector3d LocalFit::coords(const Eigen::Vector3d& q) const {
-  const Eigen::Vector3d d = q - o;
+double LocalFit::quadric_height(double u, double v) const {
+  // G w^2 - beta w + gamma = 0, the root through o (w = 0 at u = v = 0) in its stable form.
+  const double beta = 1 - q[5] * u - q[6] * v;
+  const double gamma = q[0] * u + q[1] * v + q[2] * u * u + 2 * q[3] * u * v + q[4] * v * v;
+  const double disc = std::max(beta * beta - 4 * q[7] * gamma, 0.0);
+  const double den = beta + std::sqrt(disc);
+  return den > 1e-3 ? 2 * gamma / den : gamma;
+}
+
+namespace {
+/// The quadric sheet's point at (u, v) (frame coordinates), its tangents and unit normal.
+struct QuadricPoint {
+  Eigen::Vector3d s, su, sv, nu;
+};
+QuadricPoint quadric_point(const LocalFit& F, double u, double v) {
+  const double* q = F.q;
+  const double w = F.quadric_height(u, v);
+  // Gradient of w - (a u + b v + A u^2 + 2B uv + C v^2 + D u w + E v w + G w^2).
+  const double fu = -(q[0] + 2 * q[2] * u + 2 * q[3] * v + q[5] * w);
+  const double fv = -(q[1] + 2 * q[3] * u + 2 * q[4] * v + q[6] * w);
+  double fw = 1 - q[5] * u - q[6] * v - 2 * q[7] * w;
+  if (std::abs(fw) < 1e-3) fw = fw < 0 ? -1e-3 : 1e-3;
+  QuadricPoint P;
+  P.s = u * F.t1 + v * F.t2 + w * F.n;
+  P.su = F.t1 - fu / fw * F.n;
+  P.sv = F.t2 - fv / fw * F.n;
+  P.nu = (fu * F.t1 + fv * F.t2 + fw * F.n).normalized();
+  if (fw < 0) P.nu = -P.nu;
+  return P;
+}
+}  // namespace
+
+Eigen::Vector3d LocalFit::coords(const Eigen::Vector3d& qp) const {
+  const Eigen::Vector3d d = qp - o;
   const double x = d.dot(t1), y = d.dot(t2), w = d.dot(n);
+  if (quadric_ref) {
+    // Closest point on the quadric by Gauss-Newton from the point straight below: heights
+    // along the quadric's normal, as the torus chart's (nodes of neighbouring fits then agree
+    // along the surface, not only across it).
+    // Linear convergence at rate ~ distance x curvature: few steps for points near the quadric.
+    double u = x, v = y;
+    for (int it = 0; it < 40; ++it) {
+      const QuadricPoint Q = quadric_point(*this, u, v);
+      const Eigen::Vector3d r = d - Q.s;
+      const double a11 = Q.su.dot(Q.su), a12 = Q.su.dot(Q.sv), a22 = Q.sv.dot(Q.sv);
+      const double b1 = Q.su.dot(r), b2 = Q.sv.dot(r), det = a11 * a22 - a12 * a12;
+      if (!(det > 0)) break;
+      const double du = (a22 * b1 - a12 * b2) / det, dv = (a11 * b2 - a12 * b1) / det;
+      u += du, v += dv;
+      if (std::abs(du) + std::abs(dv) < 1e-14 * (std::abs(u) + std::abs(v) + h)) break;
+    }
+    const QuadricPoint Q = quadric_point(*this, u, v);
+    return {u, v, (d - Q.s).dot(Q.nu)};
+  }
   if (k2 == 0) return {x, y, w};
   // Rotate about the axis (along t2 through o + rho1 n) into o's meridian plane: arc length u,
   // height wp there; |q - axis| - |rho1| written without cancellation.
@@ -250,6 +301,10 @@ Eigen::Vector3d LocalFit::coords(const Eigen::Vector3d& q) const {
 }
 
 Eigen::Vector3d LocalFit::point(double u, double v, double z) const {
+  if (quadric_ref) {
+    const QuadricPoint Q = quadric_point(*this, u, v);
+    return o + Q.s + z * Q.nu;
+  }
   if (k2 == 0) return o + u * t1 + v * t2 + z * n;
   // Meridian plane: at angle v / |rho2| on the tube circle, radius |rho2| - sg2 z from its centre.
   const double rho2 = 1.0 / k2, a2 = std::abs(rho2), sg2 = rho2 > 0 ? 1.0 : -1.0;
@@ -270,6 +325,43 @@ Eigen::Vector3d LocalFit::project(const Eigen::Vector3d& x) const {
   return point(c[0], c[1], height(c[0], c[1]));
 }
 
+namespace {
+
+/// Weighted linear least squares min sum w_i^2 (row_i . s - z_i)^2 over N unknowns, by Jacobi-
+/// scaled normal equations; row(i, row_i) returns z_i. False when the points barely determine s
+/// (an LDLT pivot below min_pivot x the largest: points on a few lines, as on CAD strips).
+/// residual: the weighted residual norm.
+template <int N, class Row>
+bool weighted_lsq(Eigen::Index k, const Eigen::VectorXd& w, const Row& row, double min_pivot,
+                  Eigen::Matrix<double, N, 1>& s, double& residual) {
+  using Mat = Eigen::Matrix<double, N, N>;
+  using Vec = Eigen::Matrix<double, N, 1>;
+  Mat M = Mat::Zero();
+  Vec r = Vec::Zero(), x;
+  for (Eigen::Index i = 0; i < k; ++i) {
+    const double z = row(i, x), w2 = w[i] * w[i];
+    M += w2 * x * x.transpose();
+    r += w2 * z * x;
+  }
+  Vec dsc;
+  for (int j = 0; j < N; ++j) dsc[j] = M(j, j) > 0 ? 1.0 / std::sqrt(M(j, j)) : 0.0;
+  if (!(dsc.minCoeff() > 0)) return false;
+  const Eigen::LDLT<Mat> ldlt(Mat(dsc.asDiagonal() * M * dsc.asDiagonal()));
+  const Vec piv = ldlt.vectorD();
+  if (ldlt.info() != Eigen::Success || !(piv.minCoeff() > min_pivot * piv.maxCoeff())) return false;
+  s = dsc.asDiagonal() * ldlt.solve(dsc.asDiagonal() * r);
+  if (!s.allFinite()) return false;
+  residual = 0;
+  for (Eigen::Index i = 0; i < k; ++i) {
+    const double e = row(i, x) - x.dot(s);
+    residual += w[i] * w[i] * e * e;
+  }
+  residual = std::sqrt(residual);
+  return true;
+}
+
+}  // namespace
+
 FitReference reference_surface(const Eigen::Vector3d& o, const Eigen::Vector3d& n, const Eigen::MatrixXd& P,
                                const Eigen::VectorXd& w, Eigen::Vector3d* normal) {
   // Weighted least squares for w = a u + b v + (A (u^2 + w^2 / 2) + 2 B u v + C (v^2 + w^2 / 2)) / 2,
@@ -281,32 +373,18 @@ FitReference reference_surface(const Eigen::Vector3d& o, const Eigen::Vector3d& 
   ref.t1 = t1;
   ref.t2 = t2;
   if (normal) *normal = n;
-  using Mat5 = Eigen::Matrix<double, 5, 5>;
-  using Vec5 = Eigen::Matrix<double, 5, 1>;
-  Mat5 M = Mat5::Zero();
-  Vec5 r = Vec5::Zero();
   double rmax = 0;
-  for (Eigen::Index i = 0; i < P.rows(); ++i) {
-    const Eigen::Vector3d d = P.row(i).transpose() - o;
-    const double u = d.dot(t1), v = d.dot(t2), w2 = 0.5 * d.dot(n) * d.dot(n);
-    Vec5 row;
-    row << u, v, 0.5 * (u * u + w2), u * v, 0.5 * (v * v + w2);
-    M += w[i] * w[i] * row * row.transpose();
-    r += w[i] * w[i] * d.dot(n) * row;
-    rmax = std::max(rmax, d.norm());
-  }
+  for (Eigen::Index i = 0; i < P.rows(); ++i) rmax = std::max(rmax, (P.row(i).transpose() - o).norm());
   if (!(rmax > 0)) return ref;
-  // Jacobi-scaled normal equations; points that barely determine the quadratic (all on a few
-  // lines, as on CAD strips) give no reference: a wrong one would bend every fit.
-  Vec5 dsc;
-  for (int j = 0; j < 5; ++j) dsc[j] = M(j, j) > 0 ? 1.0 / std::sqrt(M(j, j)) : 0.0;
-  if (!(dsc.minCoeff() > 0)) return ref;
-  const Mat5 Ms = dsc.asDiagonal() * M * dsc.asDiagonal();
-  const Eigen::LDLT<Mat5> ldlt(Ms);
-  const Vec5 piv = ldlt.vectorD();
-  if (ldlt.info() != Eigen::Success || !(piv.minCoeff() > 1e-6 * piv.maxCoeff())) return ref;
-  const Vec5 s = dsc.asDiagonal() * ldlt.solve(dsc.asDiagonal() * r);
-  if (!s.allFinite()) return ref;
+  // Points that barely determine the quadratic give no reference: a wrong one would bend every fit.
+  Eigen::Matrix<double, 5, 1> s;
+  const auto row = [&](Eigen::Index i, Eigen::Matrix<double, 5, 1>& x) {
+    const Eigen::Vector3d d = P.row(i).transpose() - o;
+    const double u = d.dot(t1), v = d.dot(t2), z = d.dot(n), w2 = 0.5 * z * z;
+    x << u, v, 0.5 * (u * u + w2), u * v, 0.5 * (v * v + w2);
+    return z;
+  };
+  if (!weighted_lsq<5>(P.rows(), w, row, 1e-6, s, ref.residual)) return ref;
   if (normal) {
     const Eigen::Vector3d n1 = n - s[0] * t1 - s[1] * t2;
     if (n1.norm() > 0 && n1.normalized().dot(n) > 0.5) *normal = n1.normalized();
@@ -340,6 +418,23 @@ FitReference reference_surface(const Eigen::Vector3d& o, const Eigen::Vector3d& 
   return ref;
 }
 
+FitReference quadric_reference(const Eigen::Vector3d& o, const Eigen::Vector3d& n, const Eigen::MatrixXd& P,
+                               const Eigen::VectorXd& w) {
+  FitReference ref;
+  tangent_frame(n, ref.t1, ref.t2);
+  Eigen::Matrix<double, 8, 1> s;
+  const auto row = [&](Eigen::Index i, Eigen::Matrix<double, 8, 1>& x) {
+    const Eigen::Vector3d d = P.row(i).transpose() - o;
+    const double u = d.dot(ref.t1), v = d.dot(ref.t2), z = d.dot(n);
+    x << u, v, u * u, 2 * u * v, v * v, u * z, v * z, z * z;
+    return z;
+  };
+  if (!weighted_lsq<8>(P.rows(), w, row, 1e-8, s, ref.residual)) return ref;
+  ref.quadric_ref = true;
+  for (int j = 0; j < 8; ++j) ref.q[j] = s[j];
+  return ref;
+}
+
 LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, double h,
                           const Eigen::MatrixXd& P, const Eigen::VectorXd& w, int degree,
                           const FitOptions& opt, const Eigen::MatrixXd& Q,
@@ -347,7 +442,10 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
   LocalFit F;
   F.o = o;
   F.n = n;
-  if (ref.k2 != 0) {
+  if (ref.quadric_ref) {
+    F.t1 = ref.t1, F.t2 = ref.t2, F.quadric_ref = true;
+    std::copy(ref.q, ref.q + 8, F.q);
+  } else if (ref.k2 != 0) {
     F.t1 = ref.t1, F.t2 = ref.t2, F.k1 = ref.k1, F.k2 = ref.k2;
   } else {
     tangent_frame(n, F.t1, F.t2);
@@ -420,6 +518,7 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
     F.degree = p;
     F.c = c;
     F.pivot_ratio = pivot;
+    F.residual = (b - A.leftCols(m) * (c.array() / scale.head(m).array()).matrix()).norm();
     return F;
   }
   F.degree = 0;
@@ -433,6 +532,8 @@ namespace {
 FitReference reference_of(const LocalFit& fit) {
   FitReference r;
   r.t1 = fit.t1, r.t2 = fit.t2, r.k1 = fit.k1, r.k2 = fit.k2;
+  r.quadric_ref = fit.quadric_ref;
+  std::copy(fit.q, fit.q + 8, r.q);
   return r;
 }
 
@@ -593,7 +694,21 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
       if (ref.k2 == 0) nr = n0;
     }
     LocalFit trial = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, ref);
-    if (ref.k2 != 0 && (trial.degree < p || trial.pivot_ratio < opt.support_condition)) {
+    if (use_reference && opt.reference_quadric) {
+      // The quadric reference where the data say it fits better (the weighted residual of the
+      // whole fit, same points and weights): exact on quadrics, whose curvature varies along
+      // the stencil, where the torus is exact only on spheres, cylinders and tori.
+      const FitReference qr = quadric_reference(o, nr, P, wt);
+      if (qr.quadric_ref && qr.residual < opt.quadric_gain * ref.residual) {
+        LocalFit tq = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr);
+        if (tq.degree == p && tq.pivot_ratio >= opt.support_condition &&
+            (trial.degree < p || tq.residual < opt.quadric_gain * trial.residual)) {
+          trial = std::move(tq);
+          ref = qr;
+        }
+      }
+    }
+    if ((ref.k2 != 0 || ref.quadric_ref) && (trial.degree < p || trial.pivot_ratio < opt.support_condition)) {
       // Short or ill-posed over the reference: what follows (degree fallbacks, support points)
       // is built for tangent-plane fits.
       nr = n0;

@@ -54,6 +54,17 @@ struct FitOptions {
   /// estimate (5). Smaller stencils (degree-2 and -3 fits) keep the plane: measured, their noisier
   /// references cost the observed order (jittered ellipsoid P3 3.59 with, 3.75 without).
   int reference_min_points = 20;
+  /// Also fit over the stencil's quadric (quadric_reference) and keep whichever fit has the
+  /// smaller weighted residual. Measured (bench/accuracy.py, max error P4 / P6, h = 0.2 / 0.1 /
+  /// 0.05): ellipsoid P4 1.06e-3 / 5.34e-5 / 2.21e-6 -> 5.7e-5 / 3.1e-6 / 1.7e-7 (at Gmsh's P4
+  /// from the exact CAD: its nodes are exact, what is left is interpolation), P6 33 to 300x
+  /// lower; CAD screw up to 0.87x; sphere, capped cylinder, T20 unchanged; torus h = 0.05 P4
+  /// 1.2x higher. Costs a second solve per interior fit.
+  bool reference_quadric = true;
+  /// ... when its residual is below quadric_gain x the torus fit's (and, to save the second
+  /// solve where it cannot win, the quadric's own residual below quadric_gain x the torus
+  /// quadratic's: not on spheres and cylinders, where both are exact).
+  double quadric_gain = 0.5;
   /// Surface fits have degree max(p, min_degree) for elements of order p (fit_degree()): the fit
   /// models the data, the order only says where the nodes go on it. Degree-4 stencils also reach
   /// reference_min_points. Measured (bench/accuracy.py, max error at h = 0.2 / 0.1 / 0.05, p at
@@ -119,6 +130,7 @@ struct LocalFit {
   /// Smallest / largest pivot of the column-scaled QR of the accepted solve: near 0 when the
   /// points barely determine the polynomial (e.g. all on two lines).
   double pivot_ratio = 0;
+  double residual = 0;          ///< norm of the weighted least-squares residual (units of h)
   bool identity = false;        ///< no sane fit: project() returns its argument (straight)
   /// Curvatures of the reference surface the heights are measured from, along t1 and t2
   /// (|k2| >= |k1|; both 0: the tangent plane): the torus touching the plane at o with those
@@ -131,6 +143,15 @@ struct LocalFit {
   /// convergence is about the curvature radius); measured from the osculating torus the
   /// residual is small and smooth (P4, torus h = 0.1: 1.05e-5 -> 3.5e-6).
   double k1 = 0, k2 = 0;
+  /// Quadric reference (used instead of the torus when quadric_ref): the surface
+  /// w = a u + b v + A u^2 + 2B uv + C v^2 + D u w + E v w + G w^2 in the frame (o; t1, t2, n),
+  /// q = (a, b, A, B, C, D, E, G). A point's coordinates: (u, v) of its closest point on the
+  /// quadric's sheet through o (that sheet is a graph over the plane there) and its signed
+  /// distance along the quadric's normal (height), as in the torus chart.
+  bool quadric_ref = false;
+  double q[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  /// Height along n of the quadric's sheet through o above (u, v).
+  double quadric_height(double u, double v) const;
 
   /// Height of the fitted surface at (u, v).
   double height(double u, double v) const;
@@ -146,7 +167,15 @@ struct LocalFit {
 struct FitReference {
   Eigen::Vector3d t1 = Eigen::Vector3d::Zero(), t2 = Eigen::Vector3d::Zero();
   double k1 = 0, k2 = 0;
+  bool quadric_ref = false;  ///< LocalFit::quadric_ref (t1, t2 any tangent pair)
+  double q[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  double residual = 0;       ///< weighted residual norm of its own least-squares fit (0: none)
 };
+
+/// Quadric reference through o for a fit along n (LocalFit::q): weighted least squares of the
+/// points' heights; none (quadric_ref false) when the points do not determine it.
+FitReference quadric_reference(const Eigen::Vector3d& o, const Eigen::Vector3d& n, const Eigen::MatrixXd& P,
+                               const Eigen::VectorXd& w);
 
 /// Reference surface for a fit at o along n to points P with weights w: the principal
 /// curvatures and directions of the weighted least-squares quadratic through o (tilt terms

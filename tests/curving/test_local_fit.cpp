@@ -236,3 +236,44 @@ TEST_CASE("reference surfaces: coords and point are inverse; fits reproduce a to
     CHECK(ee[1] < ee[0] / 10);
   }
 }
+
+TEST_CASE("quadric reference: coords and point are inverse; fits reproduce an ellipsoid exactly") {
+  // Points of the ellipsoid (1, 0.7, 0.5) around a point off its symmetry planes, in a frame
+  // whose normal is tilted from the surface's: the quadric through o is the ellipsoid, so the
+  // fit over it reproduces the surface to round-off, where the osculating torus cannot.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> U(-1, 1);
+  auto ell = [](double th, double ph) {
+    return Eigen::Vector3d(std::cos(th) * std::cos(ph), 0.7 * std::cos(th) * std::sin(ph), 0.5 * std::sin(th));
+  };
+  const double th0 = 0.3, ph0 = 0.2;
+  const Eigen::Vector3d o = ell(th0, ph0);
+  const Eigen::Vector3d grad(o.x(), o.y() / 0.49, o.z() / 0.25);
+  const Eigen::Vector3d n = (grad.normalized() + Eigen::Vector3d(0.05, -0.03, 0.02)).normalized();
+  const int k = 40;
+  Eigen::MatrixXd P(k, 3);
+  Eigen::VectorXd w(k);
+  for (int i = 0; i < k; ++i) {
+    P.row(i) = ell(th0 + 0.3 * U(rng), ph0 + 0.3 * U(rng)).transpose();
+    w[i] = std::exp(-(P.row(i).transpose() - o).squaredNorm() / (2 * 0.1 * 0.1));
+  }
+  const FitReference q = quadric_reference(o, n, P, w);
+  REQUIRE(q.quadric_ref);
+  double e[2] = {0, 0}, inverse = 0;
+  const FitReference refs[2] = {reference_surface(o, n, P, w), q};
+  for (int r = 0; r < 2; ++r) {
+    const LocalFit F = solve_height_fit(o, n, 0.1, P, w, 4, FitOptions{}, Eigen::MatrixXd(), Eigen::VectorXd(), false, refs[r]);
+    REQUIRE(F.degree == 4);
+    for (int i = 0; i < 200; ++i) {
+      const Eigen::Vector3d x = ell(th0 + 0.1 * U(rng), ph0 + 0.1 * U(rng));
+      e[r] = std::max(e[r], (F.project(x) - x).norm());
+      const Eigen::Vector3d y = x + 0.05 * Eigen::Vector3d(U(rng), U(rng), U(rng));
+      const Eigen::Vector3d c = F.coords(y);
+      if (r == 1) inverse = std::max(inverse, (F.point(c[0], c[1], c[2]) - y).norm());
+    }
+  }
+  MESSAGE("ellipsoid fit error: torus reference " << e[0] << ", quadric reference " << e[1]);
+  CHECK(inverse < 1e-12);
+  CHECK(e[1] < 1e-12);
+  CHECK(e[1] < e[0] / 100);
+}
