@@ -593,6 +593,31 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
   return low;
 }
 
+namespace {
+
+/// A one-sided wedge's plane fit (in its refined normal's frame) replaced by the fit over its
+/// stencil's quadric where that fits the data much better (quadric_gain) and moves no point of
+/// the wedge's faces (edge midpoints, centroids) by more than one_sided_quadric_gap x h: a
+/// half-disc of data leaves the quadric free on the open side, and there it can bend away.
+LocalFit one_sided_quadric_fit(const Mesh& mesh, const Wedges& W, int w, const Eigen::MatrixXd& P,
+                               const Eigen::VectorXd& wt, double h, int p, const FitOptions& opt, LocalFit plane) {
+  const FitReference qr = quadric_reference(plane.o, plane.n, P, wt);
+  if (!qr.quadric_ref) return plane;
+  LocalFit fq = solve_height_fit(plane.o, plane.n, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr);
+  if (fq.degree != p || fq.pivot_ratio < opt.support_condition || !(fq.residual < opt.quadric_gain * plane.residual))
+    return plane;
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
+    const int f = W.wedge_faces[i];
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+    for (const Eigen::Vector3d& x : {Eigen::Vector3d((a + b) / 2), Eigen::Vector3d((b + c) / 2),
+                                     Eigen::Vector3d((a + c) / 2), Eigen::Vector3d((a + b + c) / 3)})
+      if ((fq.project(x) - plane.project(x)).norm() > opt.one_sided_quadric_gap * h) return plane;
+  }
+  return fq;
+}
+
+}  // namespace
+
 LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
                              const SupportPoints* support, const std::vector<int>& support_start,
                              const std::vector<int>& support_index, const FitOptions& opt,
@@ -723,6 +748,9 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
       if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) {
         n1.normalize();
         trial = solve_height_fit(o, n1, h, P, wt, p, opt);
+        if (one_sided && opt.one_sided_quadric && trial.degree == p && k >= opt.reference_min_points &&
+            S.rings < opt.max_rings)
+          trial = one_sided_quadric_fit(mesh, W, w, P, wt, h, p, opt, std::move(trial));
       }
     }
     trial.rings = S.rings;

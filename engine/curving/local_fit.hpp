@@ -65,6 +65,15 @@ struct FitOptions {
   /// solve where it cannot win, the quadric's own residual below quadric_gain x the torus
   /// quadratic's: not on spheres and cylinders, where both are exact).
   double quadric_gain = 0.5;
+  /// One-sided wedges (vertices on features; no torus: see reference_torus) try the quadric too,
+  /// when their stencil reached its points within max_rings (not a thin band between two curves,
+  /// where the quadric is free across the band: T20 d/40 P4 7x worse), and keep it only if it
+  /// moves no point of the wedge's faces by more than one_sided_quadric_gap x h from the plane
+  /// fit (else it bends away on the data's open side: king P4 0.54% -> 2.7% of the diagonal).
+  /// Measured P4 at h = 0.2 / 0.1 / 0.05: capped cylinder 6.9e-4 / 1.0e-5 / 2.2e-7 -> 9.0e-6 /
+  /// 2.3e-8 / 2.3e-8, CAD screw d/80, d/160 0.95x, 0.91x; T20 and the shared meshes unchanged.
+  bool one_sided_quadric = true;
+  double one_sided_quadric_gap = 0.05;
   /// Surface fits have degree max(p, min_degree) for elements of order p (fit_degree()): the fit
   /// models the data, the order only says where the nodes go on it. Degree-4 stencils also reach
   /// reference_min_points. Measured (bench/accuracy.py, max error at h = 0.2 / 0.1 / 0.05, p at
