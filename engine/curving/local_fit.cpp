@@ -593,6 +593,36 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
   return low;
 }
 
+LocalFit reference_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n0, double h, const Eigen::MatrixXd& P,
+                       const Eigen::VectorXd& wt, int p, const FitOptions& opt) {
+  // The reference surface is set up in the tilt-corrected normal's frame: a tilted torus
+  // leaves an O(tilt) residual with every power of u in it.
+  Eigen::Vector3d nr = n0;
+  FitReference ref = reference_surface(o, n0, P, wt, &nr);
+  if (ref.k2 == 0) nr = n0;
+  LocalFit trial = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, ref);
+  if (opt.reference_quadric) {
+    // The quadric reference where the data say it fits better (the weighted residual of the
+    // whole fit, same points and weights): exact on quadrics, whose curvature varies along
+    // the stencil, where the torus is exact only on spheres, cylinders and tori.
+    const FitReference qr = quadric_reference(o, nr, P, wt);
+    if (qr.quadric_ref && qr.residual < opt.quadric_gain * ref.residual) {
+      LocalFit tq = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr);
+      if (tq.degree == p && tq.pivot_ratio >= opt.support_condition &&
+          (trial.degree < p || tq.residual < opt.quadric_gain * trial.residual)) {
+        trial = std::move(tq);
+        ref = qr;
+      }
+    }
+  }
+  if ((ref.k2 != 0 || ref.quadric_ref) && (trial.degree < p || trial.pivot_ratio < opt.support_condition)) {
+    // Short or ill-posed over the reference: what follows (degree fallbacks, support points)
+    // is built for tangent-plane fits.
+    trial = solve_height_fit(o, n0, h, P, wt, p, opt);
+  }
+  return trial;
+}
+
 namespace {
 
 /// A one-sided wedge's plane fit (in its refined normal's frame) replaced by the fit over its
@@ -709,36 +739,8 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
       for (int i = 0; i < k; ++i) wt[i] = std::pow(dist[i] * dist[i] / mean2 + 0.01, -0.5 * p);
     }
 
-    // The reference surface is set up in the tilt-corrected normal's frame: a tilted torus
-    // leaves an O(tilt) residual with every power of u in it.
-    Eigen::Vector3d nr = n0;
-    FitReference ref;
     const bool use_reference = opt.reference_torus && !one_sided && k >= opt.reference_min_points;
-    if (use_reference) {
-      ref = reference_surface(o, n0, P, wt, &nr);
-      if (ref.k2 == 0) nr = n0;
-    }
-    LocalFit trial = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, ref);
-    if (use_reference && opt.reference_quadric) {
-      // The quadric reference where the data say it fits better (the weighted residual of the
-      // whole fit, same points and weights): exact on quadrics, whose curvature varies along
-      // the stencil, where the torus is exact only on spheres, cylinders and tori.
-      const FitReference qr = quadric_reference(o, nr, P, wt);
-      if (qr.quadric_ref && qr.residual < opt.quadric_gain * ref.residual) {
-        LocalFit tq = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr);
-        if (tq.degree == p && tq.pivot_ratio >= opt.support_condition &&
-            (trial.degree < p || tq.residual < opt.quadric_gain * trial.residual)) {
-          trial = std::move(tq);
-          ref = qr;
-        }
-      }
-    }
-    if ((ref.k2 != 0 || ref.quadric_ref) && (trial.degree < p || trial.pivot_ratio < opt.support_condition)) {
-      // Short or ill-posed over the reference: what follows (degree fallbacks, support points)
-      // is built for tangent-plane fits.
-      nr = n0;
-      trial = solve_height_fit(o, n0, h, P, wt, p, opt);
-    }
+    LocalFit trial = use_reference ? reference_fit(o, n0, h, P, wt, p, opt) : solve_height_fit(o, n0, h, P, wt, p, opt);
     // One-sided wedges (a vertex on a feature) have an area-weighted normal biased at O(h):
     // those refit in the frame of the first fit's normal.
     // Only well-posed first fits (degree kept, pivots not tiny) give a trustworthy gradient.

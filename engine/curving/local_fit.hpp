@@ -210,6 +210,14 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
                           const Eigen::VectorXd& wq = Eigen::VectorXd(), bool basic = false,
                           const FitReference& ref = FitReference());
 
+/// The fit of points P (row weights w) at o, area-weighted normal n0, over a reference surface:
+/// the osculating torus (reference_surface), or the stencil's quadric where that fits much better
+/// (FitOptions::reference_quadric), or the tangent plane when over the reference the fit would be
+/// short or ill-posed. What fit_wedge does for stencils of >= reference_min_points around a vertex
+/// off the features.
+LocalFit reference_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n0, double h, const Eigen::MatrixXd& P,
+                       const Eigen::VectorXd& w, int p, const FitOptions& opt);
+
 /// Result of fitting every wedge.
 struct FitResult {
   std::vector<LocalFit> fits;             ///< per wedge
