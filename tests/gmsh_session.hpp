@@ -1,6 +1,12 @@
-// RAII Gmsh session for tests: initialise quietly, finalise at scope exit.
+// RAII Gmsh session for tests: initialise quietly, finalise at scope exit; and the triangle mesh
+// of an OCC shape as Gmsh makes it (what bench/shapes.py does).
 #pragma once
+#include "engine/core/mesh.hpp"
+
 #include <gmsh.h>
+
+#include <algorithm>
+#include <vector>
 
 struct GmshSession {
   GmshSession() {
@@ -9,3 +15,29 @@ struct GmshSession {
   }
   ~GmshSession() { gmsh::finalize(); }
 };
+
+/// Meshes the current model's surfaces at uniform size h (call inside a GmshSession, after
+/// occ::synchronize) and returns the triangles with the nodes they use.
+inline hocurve::Mesh gmsh_surface_mesh(double h) {
+  gmsh::option::setNumber("Mesh.MeshSizeMin", h);
+  gmsh::option::setNumber("Mesh.MeshSizeMax", h);
+  gmsh::model::mesh::generate(2);
+  std::vector<std::size_t> tags;
+  std::vector<double> coord, par;
+  gmsh::model::mesh::getNodes(tags, coord, par, -1, -1, true, false);
+  std::vector<std::size_t> ftags, fnodes;
+  gmsh::model::mesh::getElementsByType(2, ftags, fnodes);
+  std::size_t maxtag = 0;
+  for (auto t : tags) maxtag = std::max(maxtag, t);
+  std::vector<int> index(maxtag + 1, -1);
+  hocurve::Mesh m;
+  m.V.resize(static_cast<Eigen::Index>(tags.size()), 3);
+  for (size_t i = 0; i < tags.size(); ++i) {
+    index[tags[i]] = static_cast<int>(i);
+    for (int k = 0; k < 3; ++k) m.V(i, k) = coord[3 * i + k];
+  }
+  m.F.resize(static_cast<Eigen::Index>(ftags.size()), 3);
+  for (size_t f = 0; f < ftags.size(); ++f)
+    for (int k = 0; k < 3; ++k) m.F(f, k) = index[fnodes[3 * f + k]];
+  return m;
+}

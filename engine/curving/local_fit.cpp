@@ -852,6 +852,14 @@ std::vector<int> morton_order(const Mesh& mesh, const Wedges& W) {
   return order;
 }
 
+/// The degree wedge w is fitted at for elements needing degree p: one-sided wedges at most
+/// opt.one_sided_max_degree.
+int wedge_degree(const Wedges& W, int w, int p, const FitOptions& opt) {
+  const int v = W.wedge_vertex[w];
+  const bool one_sided = W.vertex_wedge_start[v + 1] - W.vertex_wedge_start[v] > 1;
+  return one_sided ? std::min(p, std::max(opt.one_sided_max_degree, 1)) : p;
+}
+
 }  // namespace
 
 FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
@@ -880,14 +888,21 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
     FitScratch& s = scratch.local();
     for (int i = r.begin(); i < r.end(); ++i) {
       const int w = order[i];
-      R.fits[w] = fit_wedge(mesh, T, W, w, p, support, sstart, sindex, opt, s);
+      R.fits[w] = fit_wedge(mesh, T, W, w, wedge_degree(W, w, p, opt), support, sstart, sindex, opt, s);
+      if (R.fits[w].degree > opt.min_degree && R.fits[w].pivot_ratio < opt.high_degree_condition) {
+        LocalFit low = fit_wedge(mesh, T, W, w, opt.min_degree, support, sstart, sindex, opt, s);
+        if (low.degree == opt.min_degree) {
+          low.requested_degree = R.fits[w].requested_degree;
+          R.fits[w] = std::move(low);
+        }
+      }
     }
   });
   R.degree_histogram.assign(p + 1, 0);
   double pts = 0;
   for (const auto& f : R.fits) {
     ++R.degree_histogram[f.degree];
-    if (f.degree < p) ++R.downgraded;
+    if (f.degree < f.requested_degree) ++R.downgraded;
     if (f.support_points > 0) ++R.with_support;
     pts += f.points;
   }

@@ -75,6 +75,20 @@ struct FitOptions {
   /// 2.3e-8 / 2.3e-8, CAD screw d/80, d/160 0.95x, 0.91x; T20 and the shared meshes unchanged.
   bool one_sided_quadric = true;
   double one_sided_quadric_gap = 0.05;
+  /// One-sided wedges (fit_wedges) fit at degree min(p, one_sided_max_degree): at degree 6 their
+  /// half-disc stencils need 54 points, reach max_rings (so no quadric) and wrap far round
+  /// curved faces. Measured P6 at h = 0.2 / 0.1 / 0.05: capped cylinder 7.6e-3 / 2.2e-5 / 1.3e-7
+  /// -> 1.3e-5 / 2.4e-8 / 3.3e-8; CAD screw d/80 8.9e-3 -> 7.5e-3; smooth shapes unaffected.
+  /// With high_degree_condition below, the P6 deviation from the input (max over the bbox
+  /// diagonal) of king 0.97% -> 0.52% (P4: 0.54%), t13 1.39% -> 1.33%, hinge 1.02% -> 0.38%.
+  int one_sided_max_degree = 4;
+  /// Fits above min_degree (P5, P6) whose pivot ratio is below this refit at min_degree: their
+  /// top coefficients are barely determined and the fit wiggles between the points (CAD screw
+  /// near the slot, pivots ~1e-3: 8x the degree-4 fit's error; on the torus at h = 0.2 they are
+  /// 0.12-0.15). Measured P6, screw d/80, d/160: 7.5e-3 / 1.3e-3 -> 2.2e-3 / 3.6e-4; sphere,
+  /// torus, ellipsoid unchanged. (Comparing the two fits' residuals instead picked degree 4 on
+  /// the torus where degree 6 was 2.5x better.)
+  double high_degree_condition = 1e-2;
   /// Surface fits have degree max(p, min_degree) for elements of order p (fit_degree()): the fit
   /// models the data, the order only says where the nodes go on it. Degree-4 stencils also reach
   /// reference_min_points. Measured (bench/accuracy.py, max error at h = 0.2 / 0.1 / 0.05, p at

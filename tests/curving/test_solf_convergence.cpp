@@ -11,6 +11,7 @@
 #include "engine/highorder/lagrange.hpp"
 #include "engine/highorder/reference_nodes.hpp"
 
+#include "gmsh_session.hpp"
 #include <gmsh.h>
 #include <tbb/global_control.h>
 
@@ -211,34 +212,12 @@ TEST_CASE("P6 converges and beats P4 on fine meshes") {
 namespace {
 /// Gmsh's OCC unit sphere scaled by (a, b, c), meshed at size h (what bench/shapes.py does).
 Mesh gmsh_occ_ellipsoid(double a, double b, double c, double h) {
-  gmsh::initialize();
-  gmsh::option::setNumber("General.Terminal", 0);
+  GmshSession gmsh_session;
   gmsh::model::add("shape");
   const int s = gmsh::model::occ::addSphere(0, 0, 0, 1);
   if (a != 1 || b != 1 || c != 1) gmsh::model::occ::dilate({{3, s}}, 0, 0, 0, a, b, c);
   gmsh::model::occ::synchronize();
-  gmsh::option::setNumber("Mesh.MeshSizeMin", h);
-  gmsh::option::setNumber("Mesh.MeshSizeMax", h);
-  gmsh::model::mesh::generate(2);
-  std::vector<std::size_t> tags;
-  std::vector<double> coord, par;
-  gmsh::model::mesh::getNodes(tags, coord, par, -1, -1, true, false);
-  std::vector<std::size_t> ftags, fnodes;
-  gmsh::model::mesh::getElementsByType(2, ftags, fnodes);
-  gmsh::finalize();
-  std::size_t maxtag = 0;
-  for (auto t : tags) maxtag = std::max(maxtag, t);
-  std::vector<int> index(maxtag + 1, -1);
-  Mesh m;
-  m.V.resize(static_cast<Eigen::Index>(tags.size()), 3);
-  for (size_t i = 0; i < tags.size(); ++i) {
-    index[tags[i]] = static_cast<int>(i);
-    for (int k = 0; k < 3; ++k) m.V(i, k) = coord[3 * i + k];
-  }
-  m.F.resize(static_cast<Eigen::Index>(ftags.size()), 3);
-  for (size_t f = 0; f < ftags.size(); ++f)
-    for (int k = 0; k < 3; ++k) m.F(f, k) = index[fnodes[3 * f + k]];
-  return m;
+  return gmsh_surface_mesh(h);
 }
 }  // namespace
 

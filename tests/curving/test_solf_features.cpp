@@ -11,6 +11,8 @@
 #include "engine/highorder/reference_nodes.hpp"
 #include "engine/highorder/validity.hpp"
 #include "engine/io/read_mesh.hpp"
+#include "gmsh_session.hpp"
+#include <gmsh.h>
 
 #include <string>
 
@@ -194,6 +196,35 @@ TEST_CASE("capped cylinder with sharp rims: rims stay on the rim circles") {
   plane.fit.one_sided_quadric = false;
   const Case cp = run("capped cylinder 48x12, one-sided fits over the plane", m, dist, plane);
   CHECK(c.p4 * 10 < cp.p4);
+}
+
+TEST_CASE("Gmsh CAD capped cylinder, h = 0.2: P6 at least as close as P4") {
+  // Gmsh's unstructured triangulation (~330 triangles, 16 around): the one-sided wedges of the
+  // rims fit at degree 4 (FitOptions::one_sided_max_degree, high_degree_condition), since at
+  // degree 6 their half-disc stencils reach max_rings and wrap round the side.
+  const double radius = 0.5, height = 1.0;
+  Mesh m;
+  {
+    GmshSession gmsh_session;
+    gmsh::model::add("cylinder");
+    gmsh::model::occ::addCylinder(0, 0, -0.5 * height, 0, 0, height, radius);
+    gmsh::model::occ::synchronize();
+    m = gmsh_surface_mesh(0.2);
+  }
+  const Dist dist = [&](const Eigen::Vector3d& x) { return capped_cylinder_distance(x, radius, height); };
+  CurveOptions o;
+  o.order = 4;
+  const double p4 = surface_error(curve_mesh(m, o).mesh, dist);
+  o.order = 6;
+  const CurveResult r6 = curve_mesh(m, o);
+  const double p6 = surface_error(r6.mesh, dist);
+  o.fit.one_sided_max_degree = 6;  // and no refit of ill-conditioned degree-6 fits
+  o.fit.high_degree_condition = 0;
+  const double p6_high = surface_error(curve_mesh(m, o).mesh, dist);
+  MESSAGE(m.num_faces() << " triangles: P4 " << p4 << ", P6 " << p6 << ", P6 with every fit at degree 6 " << p6_high);
+  CHECK(p6 <= 2 * p4);
+  CHECK(p6 * 100 < p6_high);
+  check_result(m, r6);
 }
 
 TEST_CASE("a CAD export's long straight edge between arcs stays straight") {
