@@ -156,7 +156,7 @@ long long refit_band_wedges(const Mesh& mesh, const Topology& T, const Wedges& W
     for (int w = r.begin(); w < r.end(); ++w)
       if (is_band_wedge(mesh, T, W, feat, w)) {
         band[w] = 1;
-        fits[w] = fit_band_wedge(mesh, T, W, feat, w, p, fits[w], opt);
+        fits[w] = fit_band_wedge(mesh, T, W, feat, w, feature_fit_degree(p, opt), fits[w], opt);
       }
   });
   long long count = 0;

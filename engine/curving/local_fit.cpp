@@ -852,12 +852,11 @@ std::vector<int> morton_order(const Mesh& mesh, const Wedges& W) {
   return order;
 }
 
-/// The degree wedge w is fitted at for elements needing degree p: one-sided wedges at most
-/// opt.one_sided_max_degree.
+/// The degree wedge w is fitted at where the fits have degree p (feature_fit_degree at features).
 int wedge_degree(const Wedges& W, int w, int p, const FitOptions& opt) {
   const int v = W.wedge_vertex[w];
   const bool one_sided = W.vertex_wedge_start[v + 1] - W.vertex_wedge_start[v] > 1;
-  return one_sided ? std::min(p, std::max(opt.one_sided_max_degree, 1)) : p;
+  return one_sided ? feature_fit_degree(p, opt) : p;
 }
 
 }  // namespace

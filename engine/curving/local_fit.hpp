@@ -75,13 +75,17 @@ struct FitOptions {
   /// 2.3e-8 / 2.3e-8, CAD screw d/80, d/160 0.95x, 0.91x; T20 and the shared meshes unchanged.
   bool one_sided_quadric = true;
   double one_sided_quadric_gap = 0.05;
-  /// One-sided wedges (fit_wedges) fit at degree min(p, one_sided_max_degree): at degree 6 their
-  /// half-disc stencils need 54 points, reach max_rings (so no quadric) and wrap far round
-  /// curved faces. Measured P6 at h = 0.2 / 0.1 / 0.05: capped cylinder 7.6e-3 / 2.2e-5 / 1.3e-7
-  /// -> 1.3e-5 / 2.4e-8 / 3.3e-8; CAD screw d/80 8.9e-3 -> 7.5e-3; smooth shapes unaffected.
-  /// With high_degree_condition below, the P6 deviation from the input (max over the bbox
-  /// diagonal) of king 0.97% -> 0.52% (P4: 0.54%), t13 1.39% -> 1.33%, hinge 1.02% -> 0.38%.
-  int one_sided_max_degree = 4;
+  /// Surface fits at features have degree at most feature_max_degree (feature_fit_degree()):
+  /// one-sided wedges (fit_wedges) and band wedges (refit_band_wedges). At degree 6 a half-disc
+  /// stencil needs 54 points, reaches max_rings (so no quadric) and wraps far round curved faces;
+  /// a band's stencil wraps round a whole rim. Measured P6 at h = 0.2 / 0.1 / 0.05: capped
+  /// cylinder 7.6e-3 / 2.2e-5 / 1.3e-7 -> 1.3e-5 / 2.1e-8 / 2.3e-8 (P4: 9.0e-6 / 2.3e-8 / 2.3e-8);
+  /// CAD screw d/40 7.9e-2 -> 3.7e-2 (P4 4.0e-2); smooth shapes unaffected. With
+  /// high_degree_condition below, the P6 deviation from the input (max over the bbox diagonal)
+  /// of king 0.97% -> 0.52% (P4: 0.54%), t13 1.39% -> 1.33%, hinge 1.02% -> 0.38%. (Feature-curve
+  /// fits keep degree p: at degree 4 for P6, the validity repair of a cap-fan sliver pulled a
+  /// second arc edge off the stadium rim in test_solf_features.)
+  int feature_max_degree = 4;
   /// Fits above min_degree (P5, P6) whose pivot ratio is below this refit at min_degree: their
   /// top coefficients are barely determined and the fit wiggles between the points (CAD screw
   /// near the slot, pivots ~1e-3: 8x the degree-4 fit's error; on the torus at h = 0.2 they are
@@ -138,6 +142,10 @@ inline int fit_coefficients(int p) { return (p + 1) * (p + 2) / 2 - 1; }
 
 /// Degree of the surface and curve fits for elements of order p (FitOptions::min_degree).
 inline int fit_degree(int p, const FitOptions& opt) { return p < 2 ? p : std::max(p, opt.min_degree); }
+
+/// Degree of the surface fits at features (one-sided and band wedges) where the other fits have
+/// degree d.
+inline int feature_fit_degree(int d, const FitOptions& opt) { return std::min(d, std::max(opt.feature_max_degree, 1)); }
 
 /// A height-function fit over the local frame (o; t1, t2, n). Coefficients c multiply the
 /// monomials (u/h)^j (v/h)^k ordered by degree, then by descending j, and give height / h.

@@ -200,7 +200,7 @@ TEST_CASE("capped cylinder with sharp rims: rims stay on the rim circles") {
 
 TEST_CASE("Gmsh CAD capped cylinder, h = 0.2: P6 at least as close as P4") {
   // Gmsh's unstructured triangulation (~330 triangles, 16 around): the one-sided wedges of the
-  // rims fit at degree 4 (FitOptions::one_sided_max_degree, high_degree_condition), since at
+  // rims fit at degree 4 (FitOptions::feature_max_degree, high_degree_condition), since at
   // degree 6 their half-disc stencils reach max_rings and wrap round the side.
   const double radius = 0.5, height = 1.0;
   Mesh m;
@@ -218,7 +218,7 @@ TEST_CASE("Gmsh CAD capped cylinder, h = 0.2: P6 at least as close as P4") {
   o.order = 6;
   const CurveResult r6 = curve_mesh(m, o);
   const double p6 = surface_error(r6.mesh, dist);
-  o.fit.one_sided_max_degree = 6;  // and no refit of ill-conditioned degree-6 fits
+  o.fit.feature_max_degree = 6;  // and no refit of ill-conditioned degree-6 fits
   o.fit.high_degree_condition = 0;
   const double p6_high = surface_error(curve_mesh(m, o).mesh, dist);
   MESSAGE(m.num_faces() << " triangles: P4 " << p4 << ", P6 " << p6 << ", P6 with every fit at degree 6 " << p6_high);
