@@ -82,7 +82,7 @@ struct FitOptions {
   /// cylinder 7.6e-3 / 2.2e-5 / 1.3e-7 -> 1.3e-5 / 2.1e-8 / 2.3e-8 (P4: 9.0e-6 / 2.3e-8 / 2.3e-8);
   /// CAD screw d/40 7.9e-2 -> 3.7e-2 (P4 4.0e-2); smooth shapes unaffected. With
   /// high_degree_condition below, the P6 deviation from the input (max over the bbox diagonal)
-  /// of king 0.97% -> 0.52% (P4: 0.54%), t13 1.39% -> 1.33%, hinge 1.02% -> 0.38%. (Feature-curve
+  /// of king 0.97% -> 0.52% (P4: 0.54%), t13 1.39% -> 1.33%, hinge 1.02% -> 0.43%. (Feature-curve
   /// fits keep degree p: at degree 4 for P6, the validity repair of a cap-fan sliver pulled a
   /// second arc edge off the stadium rim in test_solf_features.)
   int feature_max_degree = 4;
