@@ -673,7 +673,7 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
   else n0 = Eigen::Vector3d::UnitZ();
 
   const int m = fit_coefficients(p);
-  const bool one_sided = W.vertex_wedge_start[v + 1] - W.vertex_wedge_start[v] > 1;
+  const bool one_sided = W.one_sided(w);
   const int need = static_cast<int>(std::ceil((one_sided ? opt.points_per_coef_one_sided : opt.points_per_coef) * m));
   StencilOptions so;
   so.min_rings = 1;
@@ -854,9 +854,7 @@ std::vector<int> morton_order(const Mesh& mesh, const Wedges& W) {
 
 /// The degree wedge w is fitted at where the fits have degree p (feature_fit_degree at features).
 int wedge_degree(const Wedges& W, int w, int p, const FitOptions& opt) {
-  const int v = W.wedge_vertex[w];
-  const bool one_sided = W.vertex_wedge_start[v + 1] - W.vertex_wedge_start[v] > 1;
-  return one_sided ? feature_fit_degree(p, opt) : p;
+  return W.one_sided(w) ? feature_fit_degree(p, opt) : p;
 }
 
 }  // namespace

@@ -126,7 +126,7 @@ Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w
         const int* b = W.wedge_faces.data() + W.wedge_start[uw];
         const int* e = W.wedge_faces.data() + W.wedge_start[uw + 1];
         // u came from a region face, so u's only wedge (the usual case) is touched.
-        const bool only = W.vertex_wedge_start[u + 1] - W.vertex_wedge_start[u] == 1;
+        const bool only = W.vertex_wedges(u) == 1;
         if (!only && !std::any_of(b, e, [&](int f) { return region.contains(f); })) continue;
         for (const int* p = b; p != e; ++p)
           if (region.insert(*p)) new_faces.push_back(*p);

@@ -25,6 +25,9 @@ struct Wedges {
   Eigen::MatrixXi corner_wedge;
   std::vector<int> vertex_wedge_start;
   int num_wedges() const { return static_cast<int>(wedge_vertex.size()); }
+  int vertex_wedges(int v) const { return vertex_wedge_start[v + 1] - vertex_wedge_start[v]; }
+  /// Wedge w's vertex has other wedges too: it lies on a feature and w sees one side of it.
+  bool one_sided(int w) const { return vertex_wedges(wedge_vertex[w]) > 1; }
 };
 
 /// Splits the faces around every vertex into wedges separated by feature edges.
