@@ -221,6 +221,21 @@ void real(const std::string& file, double ratio, int p) {
         if (d > worst) worst = d, wf = f;
       }
     }
+    {
+      double wu = 0; int fu = -1, iu = -1;
+      for (int f = 0; f < U.mesh.num_faces(); ++f) {
+        const Eigen::MatrixXd X = element_nodes(U.mesh, f);
+        for (Eigen::Index i = 0; i < X.rows(); ++i) {
+          const double d = grid_distance(G, X.row(i).transpose());
+          if (d > wu) wu = d, fu = f, iu = i;
+        }
+      }
+      const Eigen::MatrixXd X = element_nodes(U.mesh, fu), Xf = element_nodes(Uf.mesh, fu);
+      std::printf("    unrepaired worst node: element %d node %d, %.3f%% off; nodes:", fu, iu, 100 * wu / diag);
+      for (Eigen::Index i = 0; i < X.rows(); ++i)
+        std::printf(" %.2f/%.2f", 100 * grid_distance(G, X.row(i).transpose()) / diag, 100 * (X.row(i) - Xf.row(i)).norm() / diag);
+      std::printf("\n");
+    }
     if (wf >= 0) {
       const Eigen::MatrixXd X = element_nodes(L.mesh, wf), Xf = element_nodes(Uf.mesh, wf);
       std::printf("    worst node: element %d, %.3f%% off the input; its nodes (distance %% / snap move %%):", wf,
