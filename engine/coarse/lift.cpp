@@ -1,7 +1,5 @@
 #include "engine/coarse/lift.hpp"
 
-#include "engine/coarse/node_fit.hpp"
-#include "engine/coarse/surface_distance.hpp"
 #include "engine/core/error.hpp"
 #include "engine/curving/place_nodes.hpp"
 
@@ -13,8 +11,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <cstdlib>
-#include <cstdio>
 
 namespace hocurve {
 
@@ -449,15 +445,11 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
       if (bad[f])
         for (int j = 0; j < 3; ++j) redo_edge[Tc.FE(f, j)] = !cfeat[Tc.FE(f, j)];
     }
-    static const int mode = std::getenv("RESNAP_MODE") ? std::atoi(std::getenv("RESNAP_MODE")) : 0;
     auto resnap = [&](Eigen::MatrixXd::RowXpr node, int f, const Eigen::Vector3d& xi, const Eigen::Vector3d& x0,
                       const Eigen::Vector3d& n) {
       MapQueryStats st;
       bool ok = false;
-      Eigen::Vector3d xs = Eigen::Vector3d::Zero();
-      for (int j = 0; j < 3; ++j) xs += xi[j] * coarse.V.row(coarse.F(f, j)).transpose();
-      const DenseProjection P = ray_snap(f, xi, mode ? xs : x0, n, st, ok);
-      if (mode == 1) { if (ok) node = P.lifted.transpose(); return; }
+      const DenseProjection P = ray_snap(f, xi, x0, n, st, ok);
       // Else the first snap stays; so it does when the re-snap lands further from the fit blend
       // than the first snap (measured: such rays lose accuracy, e.g. armadillo 0.766% -> 0.790%).
       if (ok && (P.lifted - x0).norm() <= (node.transpose() - x0).norm()) node = P.lifted.transpose();
@@ -484,61 +476,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
       });
     for (int f = 0; f < ncf; ++f) R.resnapped_elements += bad[f];
   }
-  if (opt.refine && opt.repair && std::getenv("FB_STRAIGHT")) {
-    // Fallback targets: every node on the dense surface along the straight normal from its
-    // straight position (face nodes: J as the straight triangle's); the fit blend where the ray misses.
-    Eigen::MatrixXd fn(ncf, 3);
-    for (int f = 0; f < ncf; ++f) {
-      const Eigen::Vector3d a = coarse.V.row(coarse.F(f, 0)), b = coarse.V.row(coarse.F(f, 1)),
-                            c = coarse.V.row(coarse.F(f, 2));
-      fn.row(f) = (b - a).cross(c - a).normalized().transpose();
-    }
-    auto straight_ray = [&](Eigen::MatrixXd::RowXpr target, const Eigen::RowVector3d& snapped, int f, const Eigen::Vector3d& xi, const Eigen::Vector3d& n) {
-      Eigen::Vector3d xs = Eigen::Vector3d::Zero();
-      for (int j = 0; j < 3; ++j) xs += xi[j] * coarse.V.row(coarse.F(f, j)).transpose();
-      MapQueryStats st;
-      bool ok = false;
-      const DenseProjection P = ray_snap(f, xi, xs, n, st, ok);
-      if (ok && (!std::getenv("FB_GUARD") || (P.lifted.transpose() - snapped).norm() <= (target - snapped).norm())) target = P.lifted.transpose();
-    };
-    parallel(ne, [&](int e) {
-      if (cfeat[e] || std::getenv("FB_FACE_ONLY")) return;
-      Eigen::Vector3d n = Eigen::Vector3d::Zero();
-      for (int g : Tc.edge_faces[e]) n += fn.row(g).transpose();
-      const int f = Tc.edge_faces[e][0];
-      for (int k = 1; k < p; ++k)
-        straight_ray(edge_fit.row(static_cast<Eigen::Index>(e) * npe + k - 1), hm.edge_nodes.row(static_cast<Eigen::Index>(e) * npe + k - 1), f, edge_barycentric(coarse, Tc, e, f, line[k]), n);
-    });
-    if (npf > 0)
-      parallel(ncf, [&](int f) {
-        for (int k = 0; k < npf; ++k) {
-          const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
-          straight_ray(face_fit.row(static_cast<Eigen::Index>(f) * npf + k), hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k), f, Eigen::Vector3d(1 - u - v, u, v), fn.row(f).transpose());
-        }
-      });
-  }
   if (opt.refine && opt.repair) R.fit_fallback_elements = fall_back_to_fits(hm, edge_fit, face_fit, opt.fallback_offending_only, opt.validity);
-  if (opt.refine && opt.node_fit.iterations > 0 && !std::getenv("NODEFIT_OFF")) {
-    // Nodes on the dense surface make elements interpolate it; a least-squares fit along the
-    // node normals brings the element surfaces closer to it between the nodes.
-    std::vector<char> fixed(ncv + static_cast<long long>(ne) * npe + static_cast<long long>(ncf) * npf, 0);
-    for (int e = 0; e < ne; ++e)
-      if (cfeat[e])
-        for (int k = 0; k < npe; ++k) fixed[ncv + static_cast<long long>(e) * npe + k] = 1;
-    const TriangleGrid grid = build_triangle_grid(fine);
-    const HighOrderMesh prefit = hm;
-    const NodeFitResult nfr = fit_nodes_to_dense(hm, fine, grid, map, fixed, opt.node_fit);
-    // Elements the fit made invalid go back toward their valid pre-fit nodes.
-    if (opt.repair) fall_back_to_fits(hm, prefit.edge_nodes, prefit.face_nodes, opt.fallback_offending_only, opt.validity);
-    // The fit minimises squared distances; keep it only where it does not raise the largest one.
-    auto t1 = Clock::now();
-    const double before = hausdorff_distance(fine, tessellate(prefit, 6), 3).hausdorff();
-    const double after = hausdorff_distance(fine, tessellate(hm, 6), 3).hausdorff();
-    if (std::getenv("NODEFIT_VERBOSE")) std::fprintf(stderr, "node fit: %.4g -> %.4g (%.2f s check, %.2f s fit)\n", before, after, since(t1), nfr.seconds);
-    if (!(after <= before)) hm = prefit;
-    R.node_fit_rms_before = nfr.rms_before, R.node_fit_rms_after = nfr.rms_after;
-  }
-
   R.validity = opt.repair ? repair_validity(hm, opt.validity) : check_validity(hm, opt.validity);
   R.seconds_validity = since(t0);
   R.seconds_total = since(t_all);

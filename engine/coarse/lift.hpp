@@ -17,7 +17,6 @@
 #pragma once
 #include "engine/coarse/decimate.hpp"
 #include "engine/coarse/dense_surface.hpp"
-#include "engine/coarse/node_fit.hpp"
 #include "engine/highorder/high_order_mesh.hpp"
 #include "engine/highorder/validity.hpp"
 
@@ -53,9 +52,6 @@ struct LiftOptions {
   /// 0.709%, hinge 1.280 -> 1.078%, lever 1.643 -> 1.628%, the other six shared meshes unchanged
   /// (session 5, before the deviation limit and the long edges, lever was 5.509 -> 5.524%: off then).
   bool fallback_offending_only = true;
-  /// Least-squares fit of the snapped high-order nodes along their normals to the dense mesh
-  /// (iterations = 0: nodes stay on the dense surface).
-  NodeFitOptions node_fit;
   bool repair = true;          ///< run repair_validity (else only check_validity)
   ValidityOptions validity;
   /// Called on the calling thread between stages with the stage name and the fraction done (0..1).
@@ -90,7 +86,6 @@ struct LiftResult {
   double refine_max = 0, refine_rms = 0;  ///< fit-blend -> dense-surface move, over the bbox diagonal
   long long resnapped_elements = 0;     ///< invalid snapped elements re-snapped along straight normals
   long long fit_fallback_elements = 0;  ///< invalid snapped elements moved back toward the coarse-fit blend
-  double node_fit_rms_before = 0, node_fit_rms_after = 0;  ///< residual RMS of the node fit (absolute)
   ValidityReport validity;     ///< of the final repair_validity (invalid_before: after the fit fallback)
   double bbox_diagonal = 0;
   double seconds_dense = 0, seconds_coarse_fits = 0, seconds_placement = 0, seconds_validity = 0,
