@@ -11,6 +11,7 @@
 #include "engine/coarse/lift.hpp"
 #include "engine/coarse/surface_distance.hpp"
 #include "engine/curving/test_meshes.hpp"
+#include "engine/highorder/lagrange.hpp"
 #include "engine/highorder/validity.hpp"
 #include "engine/io/read_mesh.hpp"
 
@@ -56,6 +57,7 @@ LiftOptions lift_options(const DecimateOptions& dopt, int p) {
   lopt.features = feature_options(dopt);
   lopt.projection = projection_from_env(lopt.projection);
   if (const char* e = std::getenv("BENCH_LIFT_RESNAP")) lopt.resnap_invalid = std::string(e) != "0";
+  if (const char* e = std::getenv("BENCH_LIFT_SLIDE")) lopt.slide_candidates = std::string(e) != "0";
   if (const char* e = std::getenv("BENCH_LIFT_OFFENDING")) lopt.fallback_offending_only = std::string(e) != "0";
   return lopt;
 }
@@ -189,11 +191,11 @@ void real(const std::string& file, double ratio, int p) {
   const HausdorffResult Hc = hausdorff_distance(fine, tessellate(L.mesh, 8), 4);
   const HausdorffResult Hs = hausdorff_distance(fine, D.coarse, 4);
   std::printf("%-22s %7d -> %5d P%d | Hausdorff/diag: coarse P%d %.3f%% (dense->coarse %.3f%%, coarse->dense %.3f%%), "
-              "straight %.3f%% | invalid %lld (resnapped %lld, fit fallback %lld, repaired %lld) | features dense %lld, coarse %lld | "
+              "straight %.3f%% | invalid %lld (resnapped %lld, fit fallback %lld, slid %lld in %lld clusters, repaired %lld) | features dense %lld, coarse %lld | "
               "decimate %.2f s, map %.2f s, lift %.2f s\n",
               file.substr(file.find_last_of('/') + 1).c_str(), fine.num_faces(), D.coarse.num_faces(), p, p,
               100 * Hc.hausdorff() / diag, 100 * Hc.a_to_b / diag, 100 * Hc.b_to_a / diag, 100 * Hs.hausdorff() / diag,
-              L.validity.invalid_after, L.resnapped_elements, L.fit_fallback_elements, L.validity.repaired, L.dense_feature_edges, L.coarse_feature_edges,
+              L.validity.invalid_after, L.resnapped_elements, L.fit_fallback_elements, L.slid_elements, L.slid_clusters, L.validity.repaired, L.dense_feature_edges, L.coarse_feature_edges,
               r.decimate, r.map, r.lift_seconds);
   if (!D.reached_target) std::printf("    %s\n", D.message.c_str());
   if (std::getenv("BENCH_LIFT_DEBUG")) {
@@ -235,6 +237,28 @@ void real(const std::string& file, double ratio, int p) {
       for (Eigen::Index i = 0; i < X.rows(); ++i)
         std::printf(" %.2f/%.2f", 100 * grid_distance(G, X.row(i).transpose()) / diag, 100 * (X.row(i) - Xf.row(i)).norm() / diag);
       std::printf("\n");
+    }
+    {
+      // The element whose surface strays furthest from the input (samples, not nodes).
+      Eigen::MatrixXd uv(45, 2);
+      int r = 0;
+      for (int j = 0; j <= 8; ++j)
+        for (int i = 0; i + j <= 8; ++i) uv.row(r++) << i / 8.0, j / 8.0;
+      double ws = 0;
+      int fs = -1;
+      for (int f = 0; f < L.mesh.num_faces(); ++f) {
+        const Eigen::MatrixXd S = evaluate_triangle(element_nodes(L.mesh, f), p, uv.topRows(r));
+        for (Eigen::Index i = 0; i < S.rows(); ++i) {
+          const double d = grid_distance(G, S.row(i).transpose());
+          if (d > ws) ws = d, fs = f;
+        }
+      }
+      if (fs >= 0) {
+        const Eigen::MatrixXd X = element_nodes(L.mesh, fs);
+        std::printf("    worst element (samples): %d, %.3f%% off; node distances %%:", fs, 100 * ws / diag);
+        for (Eigen::Index i = 0; i < X.rows(); ++i) std::printf(" %.2f", 100 * grid_distance(G, X.row(i).transpose()) / diag);
+        std::printf("; min J %.3f\n", check_element(X, p).min_scaled_jacobian);
+      }
     }
     if (wf >= 0) {
       const Eigen::MatrixXd X = element_nodes(L.mesh, wf), Xf = element_nodes(Uf.mesh, wf);

@@ -102,6 +102,8 @@ nlohmann::json lift_json(const LiftResult& l) {
           {"validity",
            {{"checked", v.checked},
             {"fit_fallback_elements", l.fit_fallback_elements},
+            {"slid_elements", l.slid_elements},
+            {"slid_clusters", l.slid_clusters},
             {"invalid_before_repair", v.invalid_before},
             {"repaired", v.repaired},
             {"invalid_after", v.invalid_after},

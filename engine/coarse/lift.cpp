@@ -1,5 +1,8 @@
 #include "engine/coarse/lift.hpp"
 
+#include "engine/coarse/closest_candidate.hpp"
+#include "engine/coarse/surface_distance.hpp"
+
 #include "engine/core/error.hpp"
 #include "engine/curving/place_nodes.hpp"
 
@@ -11,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <functional>
 
 namespace hocurve {
 
@@ -66,6 +70,16 @@ std::vector<char> coarse_feature_edges(const Mesh& coarse, const Topology& Tc, c
   });
   for (int c : clamps) clamped += c;
   return feat;
+}
+
+/// Unit normals of the straight triangles, #F x 3.
+Eigen::MatrixXd unit_face_normals(const Mesh& m) {
+  Eigen::MatrixXd n(m.num_faces(), 3);
+  for (int f = 0; f < m.num_faces(); ++f) {
+    const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+    n.row(f) = (b - a).cross(c - a).normalized().transpose();
+  }
+  return n;
 }
 
 /// A coarse fit is sane when it moves no point of its wedge's faces by more than
@@ -173,8 +187,12 @@ int offending_group(const JacobianBasis& basis, const Eigen::MatrixXd& nodes, co
 /// nodes stay conforming), re-checking the touched elements. With offending_only, an element
 /// that one node group (its face nodes, or one edge's) makes valid shrinks only that group:
 /// the others stay on the dense surface. Returns the elements touched.
+/// A node's position at shrink factor s (1: snapped, 0: fallback target), by storage row.
+using NodeAt = std::function<Eigen::RowVector3d(Eigen::Index row, double s)>;
+
 long long fall_back_to_fits(HighOrderMesh& hm, const Eigen::MatrixXd& edge_fit, const Eigen::MatrixXd& face_fit,
-                            bool offending_only, const ValidityOptions& vopt) {
+                            bool offending_only, const ValidityOptions& vopt, const NodeAt& edge_at = {},
+                            const NodeAt& face_at = {}) {
   const int nf = hm.num_faces(), ne = static_cast<int>(hm.E.rows());
   const int npe = hm.nodes_per_edge(), npf = hm.nodes_per_face();
   const Eigen::MatrixXd edge_snap = hm.edge_nodes, face_snap = hm.face_nodes;
@@ -214,7 +232,7 @@ long long fall_back_to_fits(HighOrderMesh& hm, const Eigen::MatrixXd& edge_fit, 
       if (!edge_changed[e]) continue;
       for (int k = 0; k < npe; ++k) {
         const Eigen::Index r = static_cast<Eigen::Index>(e) * npe + k;
-        hm.edge_nodes.row(r) = edge_fit.row(r) + se[e] * (edge_snap.row(r) - edge_fit.row(r));
+        hm.edge_nodes.row(r) = edge_at ? edge_at(r, se[e]) : edge_fit.row(r) + se[e] * (edge_snap.row(r) - edge_fit.row(r));
       }
       for (int g : edge_faces[e]) check[g] = 1;
     }
@@ -223,7 +241,7 @@ long long fall_back_to_fits(HighOrderMesh& hm, const Eigen::MatrixXd& edge_fit, 
         check[f] = 1;
         for (int k = 0; k < npf; ++k) {
           const Eigen::Index r = static_cast<Eigen::Index>(f) * npf + k;
-          hm.face_nodes.row(r) = face_fit.row(r) + sf[f] * (face_snap.row(r) - face_fit.row(r));
+          hm.face_nodes.row(r) = face_at ? face_at(r, sf[f]) : face_fit.row(r) + sf[f] * (face_snap.row(r) - face_fit.row(r));
         }
       }
   }
@@ -424,10 +442,18 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   R.seconds_placement = since(t0);
 
   // 5. Validity. Snapped nodes interpolate the dense data, noise included (scans): where that
-  // folds an element, its nodes go back toward the smooth coarse-fit blend first; then the
-  // check and repair of dense curving (toward the straight triangles) as the final guarantee.
+  // folds an element, its nodes re-snap along the straight normals, then go back toward the
+  // smooth coarse-fit blend or slide along the dense surface (whichever stays closer to the
+  // input); the check and repair of dense curving (toward the straight triangles) is the final
+  // guarantee.
   progress("validity", 0.9);
   t0 = Clock::now();
+  const Eigen::MatrixXd fn = unit_face_normals(coarse);
+  auto edge_normal = [&](int e) {  // the mean of the edge's faces: the same for both, conforming
+    Eigen::Vector3d n = Eigen::Vector3d::Zero();
+    for (int g : Tc.edge_faces[e]) n += fn.row(g).transpose();
+    return n.normalized();
+  };
   if (opt.refine && opt.resnap_invalid && opt.projection == LiftOptions::Projection::Ray) {
     // J = (x_u x x_v) . n_straight sees only the in-plane part of the node moves. Where a coarse
     // triangle cuts across curvature, the blended fit normals lean away from n_straight and the
@@ -437,14 +463,9 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
     const JacobianBasis basis(p);
     std::vector<char> bad(ncf, 0), redo_edge(ne, 0);
     parallel(ncf, [&](int f) { bad[f] = !check_element(basis, element_nodes(hm, f), opt.validity).valid; });
-    Eigen::MatrixXd fn(ncf, 3);  // unit straight normals
-    for (int f = 0; f < ncf; ++f) {
-      const Eigen::Vector3d a = coarse.V.row(coarse.F(f, 0)), b = coarse.V.row(coarse.F(f, 1)),
-                            c = coarse.V.row(coarse.F(f, 2));
-      fn.row(f) = (b - a).cross(c - a).normalized().transpose();
+    for (int f = 0; f < ncf; ++f)
       if (bad[f])
         for (int j = 0; j < 3; ++j) redo_edge[Tc.FE(f, j)] = !cfeat[Tc.FE(f, j)];
-    }
     auto resnap = [&](Eigen::MatrixXd::RowXpr node, int f, const Eigen::Vector3d& xi, const Eigen::Vector3d& x0,
                       const Eigen::Vector3d& n) {
       MapQueryStats st;
@@ -456,8 +477,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
     };
     parallel(ne, [&](int e) {
       if (!redo_edge[e]) return;
-      Eigen::Vector3d n = Eigen::Vector3d::Zero();  // the mean of the edge's faces: conforming
-      for (int g : Tc.edge_faces[e]) n += fn.row(g).transpose();
+      const Eigen::Vector3d n = edge_normal(e);
       const int f = Tc.edge_faces[e][0];
       for (int k = 1; k < p; ++k) {
         const Eigen::Index r = static_cast<Eigen::Index>(e) * npe + k - 1;
@@ -476,8 +496,83 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
       });
     for (int f = 0; f < ncf; ++f) R.resnapped_elements += bad[f];
   }
-  if (opt.refine && opt.repair) R.fit_fallback_elements = fall_back_to_fits(hm, edge_fit, face_fit, opt.fallback_offending_only, opt.validity);
-  R.validity = opt.repair ? repair_validity(hm, opt.validity) : check_validity(hm, opt.validity);
+  if (!(opt.refine && opt.repair)) {
+    R.validity = opt.repair ? repair_validity(hm, opt.validity) : check_validity(hm, opt.validity);
+  } else {
+    // Candidate ways to make the folded elements valid; each cluster of elements where they differ
+    // takes the one closest to the dense input (closest_candidate.hpp). The first: nodes back
+    // toward the coarse-fit blend. The others first slide nodes along the dense surface: a node's
+    // in-plane offset from its straight position shrinks by s and it goes back onto the dense
+    // surface along the straight normal (edge nodes: the mean of their faces'). J sees only the
+    // in-plane part, so at s = 0 face nodes give the straight triangle's J, with every node still on
+    // the dense surface; edge nodes keep an in-plane offset of their normal move times the sine of
+    // half the dihedral angle.
+    const Eigen::MatrixXd edge_snap = hm.edge_nodes, face_snap = hm.face_nodes;
+    struct Slide {
+      bool edges, guard;  // slide edge nodes too; refuse rays that land further from the snap than the fit blend
+    };
+    auto slide = [&](const Slide& how, int f, const Eigen::Vector3d& xi, const Eigen::Vector3d& n,
+                     const Eigen::Vector3d& snap, const Eigen::Vector3d& fit, double s) -> Eigen::RowVector3d {
+      Eigen::Vector3d xs = Eigen::Vector3d::Zero();
+      for (int j = 0; j < 3; ++j) xs += xi[j] * coarse.V.row(coarse.F(f, j)).transpose();
+      const Eigen::Vector3d d = snap - xs;
+      const Eigen::Vector3d q = xs + s * (d - d.dot(n) * n) + d.dot(n) * n;
+      MapQueryStats st;
+      bool ok = false;
+      const DenseProjection P = ray_snap(f, xi, q, n, st, ok);
+      // Without a hit the node keeps its height over the straight plane (nearer the dense surface than
+      // the fit blend on the measured meshes); a long ray may have crossed to another sheet (guard).
+      if (ok && (!how.guard || (P.lifted - snap).norm() <= (fit - snap).norm())) return P.lifted.transpose();
+      return q.transpose();
+    };
+    auto candidate = [&](const Slide* how, long long& fallback) {
+      HighOrderMesh m = hm;
+      fallback = 0;
+      if (how) {
+        const NodeAt edge_at = [&](Eigen::Index r, double s) -> Eigen::RowVector3d {
+          const int e = static_cast<int>(r / npe), k = static_cast<int>(r % npe) + 1;
+          if (cfeat[e] || !how->edges) return edge_fit.row(r) + s * (edge_snap.row(r) - edge_fit.row(r));
+          const int f = Tc.edge_faces[e][0];
+          return slide(*how, f, edge_barycentric(coarse, Tc, e, f, line[k]), edge_normal(e),
+                       edge_snap.row(r).transpose(), edge_fit.row(r).transpose(), s);
+        };
+        const NodeAt face_at = [&](Eigen::Index r, double s) -> Eigen::RowVector3d {
+          const int f = static_cast<int>(r / npf), k = static_cast<int>(r % npf);
+          const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
+          return slide(*how, f, Eigen::Vector3d(1 - u - v, u, v), fn.row(f).transpose(), face_snap.row(r).transpose(),
+                       face_fit.row(r).transpose(), s);
+        };
+        Eigen::MatrixXd edge_end(edge_fit.rows(), 3), face_end(face_fit.rows(), 3);
+        parallel(static_cast<int>(edge_end.rows()), [&](int r) { edge_end.row(r) = edge_at(r, 0.0); });
+        parallel(static_cast<int>(face_end.rows()), [&](int r) { face_end.row(r) = face_at(r, 0.0); });
+        fallback += fall_back_to_fits(m, edge_end, face_end, opt.fallback_offending_only, opt.validity, edge_at, face_at);
+      }
+      fallback += fall_back_to_fits(m, edge_fit, face_fit, opt.fallback_offending_only, opt.validity);
+      const ValidityReport rep = repair_validity(m, opt.validity);
+      return std::make_pair(std::move(m), rep);
+    };
+    std::vector<HighOrderMesh> cands;
+    auto [m0, rep0] = candidate(nullptr, R.fit_fallback_elements);
+    R.validity = rep0;
+    cands.push_back(std::move(m0));
+    if (opt.slide_candidates) {
+      const Slide ways[] = {{true, false}, {true, true}, {false, false}};
+      for (const Slide& w : ways) {
+        long long fb = 0;
+        cands.push_back(candidate(&w, fb).first);
+      }
+      const TriangleGrid grid = build_triangle_grid(fine);
+      const ClosestCandidateResult C = choose_closest_candidate(cands, fine, grid, map, hm);
+      R.slid_clusters = C.clusters - (C.chosen.empty() ? 0 : C.chosen[0]);
+      R.slid_elements = C.elements_changed;
+      const ValidityReport fin = check_validity(hm, opt.validity);
+      R.validity.invalid_after = fin.invalid_after;
+      R.validity.min_scaled_jacobian = fin.min_scaled_jacobian;
+      R.validity.invalid_faces = fin.invalid_faces;
+    } else {
+      hm = std::move(cands[0]);
+    }
+  }
   R.seconds_validity = since(t0);
   R.seconds_total = since(t_all);
   progress("done", 1.0);

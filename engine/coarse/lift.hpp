@@ -52,6 +52,10 @@ struct LiftOptions {
   /// 0.709%, hinge 1.280 -> 1.078%, lever 1.643 -> 1.628%, the other six shared meshes unchanged
   /// (session 5, before the deviation limit and the long edges, lever was 5.509 -> 5.524%: off then).
   bool fallback_offending_only = true;
+  /// Besides moving folded elements back toward the coarse-fit blend, also slide their nodes along
+  /// the dense surface toward their straight positions (three variants), and let every cluster of
+  /// elements where these differ take the one closest to the dense input (choose_closest_candidate).
+  bool slide_candidates = true;
   bool repair = true;          ///< run repair_validity (else only check_validity)
   ValidityOptions validity;
   /// Called on the calling thread between stages with the stage name and the fraction done (0..1).
@@ -86,6 +90,7 @@ struct LiftResult {
   double refine_max = 0, refine_rms = 0;  ///< fit-blend -> dense-surface move, over the bbox diagonal
   long long resnapped_elements = 0;     ///< invalid snapped elements re-snapped along straight normals
   long long fit_fallback_elements = 0;  ///< invalid snapped elements moved back toward the coarse-fit blend
+  long long slid_clusters = 0, slid_elements = 0;  ///< clusters (elements) that took a sliding candidate
   ValidityReport validity;     ///< of the final repair_validity (invalid_before: after the fit fallback)
   double bbox_diagonal = 0;
   double seconds_dense = 0, seconds_coarse_fits = 0, seconds_placement = 0, seconds_validity = 0,

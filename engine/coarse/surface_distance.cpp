@@ -111,7 +111,7 @@ bool grid_within(const TriangleGrid& G, const Eigen::Vector3d& x, double r) {
   return grid_search(G, x, r, r, nullptr) <= r;
 }
 
-Mesh tessellate(const HighOrderMesh& hm, int n) {
+Mesh tessellate(const HighOrderMesh& hm, int n, const std::vector<int>* faces) {
   const int p = hm.order;
   const int nl = (n + 1) * (n + 2) / 2;
   Eigen::MatrixXd uv(nl, 2);
@@ -123,22 +123,23 @@ Mesh tessellate(const HighOrderMesh& hm, int n) {
       id[i][j] = r++;
     }
   Mesh out;
-  const int nf = hm.num_faces();
+  const int nf = faces ? static_cast<int>(faces->size()) : hm.num_faces();
   out.V.resize(static_cast<Eigen::Index>(nf) * nl, 3);
   out.F.resize(static_cast<Eigen::Index>(nf) * n * n, 3);
-  for (int f = 0; f < nf; ++f) {
+  for (int el = 0; el < nf; ++el) {
+    const int f = faces ? (*faces)[el] : el;
     const Eigen::MatrixXd X = p >= 2 ? evaluate_triangle(element_nodes(hm, f), p, uv) : Eigen::MatrixXd();
     for (int k = 0; k < nl; ++k) {
       if (p >= 2) {
-        out.V.row(static_cast<Eigen::Index>(f) * nl + k) = X.row(k);
+        out.V.row(static_cast<Eigen::Index>(el) * nl + k) = X.row(k);
       } else {
         const double u = uv(k, 0), v = uv(k, 1);
-        out.V.row(static_cast<Eigen::Index>(f) * nl + k) =
+        out.V.row(static_cast<Eigen::Index>(el) * nl + k) =
             (1 - u - v) * hm.V.row(hm.F(f, 0)) + u * hm.V.row(hm.F(f, 1)) + v * hm.V.row(hm.F(f, 2));
       }
     }
-    int t = f * n * n;
-    const int base = f * nl;
+    int t = el * n * n;
+    const int base = el * nl;
     for (int j = 0; j < n; ++j)
       for (int i = 0; i + j < n; ++i) {
         out.F.row(t++) << base + id[i][j], base + id[i + 1][j], base + id[i][j + 1];

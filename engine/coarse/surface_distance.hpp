@@ -30,8 +30,9 @@ double grid_distance(const TriangleGrid& grid, const Eigen::Vector3d& x, int* fa
 /// stops at the first one found).
 bool grid_within(const TriangleGrid& grid, const Eigen::Vector3d& x, double r);
 
-/// Linear triangles through an n x n sub-lattice of every curved element (n^2 per element).
-Mesh tessellate(const HighOrderMesh& hm, int n);
+/// Linear triangles through an n x n sub-lattice of every curved element (n^2 per element), or
+/// only of the elements listed in faces.
+Mesh tessellate(const HighOrderMesh& hm, int n, const std::vector<int>* faces = nullptr);
 
 /// Points of every face of mesh at the barycentric lattice of degree n (shared points repeated).
 Eigen::MatrixXd sample_faces(const Mesh& mesh, int n);
