@@ -510,7 +510,20 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
     const Eigen::MatrixXd edge_snap = hm.edge_nodes, face_snap = hm.face_nodes;
     struct Slide {
       bool edges, guard;  // slide edge nodes too; refuse rays that land further from the snap than the fit blend
+      bool folded_normal = false;  // edge nodes along the normal of their one folded face, if one is
     };
+    std::vector<int> folded_face(ne, -1);  // per edge: its only face that the snap left folded, else -1
+    {
+      const JacobianBasis basis(p);
+      std::vector<char> bad(ncf, 0);
+      parallel(ncf, [&](int f) { bad[f] = !check_element(basis, element_nodes(hm, f), opt.validity).valid; });
+      for (int e = 0; e < ne; ++e) {
+        int n = 0;
+        for (int g : Tc.edge_faces[e])
+          if (bad[g]) ++n, folded_face[e] = g;
+        if (n != 1) folded_face[e] = -1;
+      }
+    }
     auto slide = [&](const Slide& how, int f, const Eigen::Vector3d& xi, const Eigen::Vector3d& n,
                      const Eigen::Vector3d& snap, const Eigen::Vector3d& fit, double s) -> Eigen::RowVector3d {
       Eigen::Vector3d xs = Eigen::Vector3d::Zero();
@@ -533,7 +546,8 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
           const int e = static_cast<int>(r / npe), k = static_cast<int>(r % npe) + 1;
           if (cfeat[e] || !how->edges) return edge_fit.row(r) + s * (edge_snap.row(r) - edge_fit.row(r));
           const int f = Tc.edge_faces[e][0];
-          return slide(*how, f, edge_barycentric(coarse, Tc, e, f, line[k]), edge_normal(e),
+          const Eigen::Vector3d n = how->folded_normal && folded_face[e] >= 0 ? Eigen::Vector3d(fn.row(folded_face[e]).transpose()) : edge_normal(e);
+          return slide(*how, f, edge_barycentric(coarse, Tc, e, f, line[k]), n,
                        edge_snap.row(r).transpose(), edge_fit.row(r).transpose(), s);
         };
         const NodeAt face_at = [&](Eigen::Index r, double s) -> Eigen::RowVector3d {
@@ -556,7 +570,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
     R.validity = rep0;
     cands.push_back(std::move(m0));
     if (opt.slide_candidates) {
-      const Slide ways[] = {{true, false}, {true, true}, {false, false}};
+      const Slide ways[] = {{true, false}, {true, true}, {false, false}, {true, false, true}};
       for (const Slide& w : ways) {
         long long fb = 0;
         cands.push_back(candidate(&w, fb).first);

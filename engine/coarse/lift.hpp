@@ -53,7 +53,7 @@ struct LiftOptions {
   /// (session 5, before the deviation limit and the long edges, lever was 5.509 -> 5.524%: off then).
   bool fallback_offending_only = true;
   /// Besides moving folded elements back toward the coarse-fit blend, also slide their nodes along
-  /// the dense surface toward their straight positions (three variants), and let every cluster of
+  /// the dense surface toward their straight positions (four variants), and let every cluster of
   /// elements where these differ take the one closest to the dense input (choose_closest_candidate).
   bool slide_candidates = true;
   bool repair = true;          ///< run repair_validity (else only check_validity)
