@@ -41,12 +41,15 @@ double cluster_distance(const HighOrderMesh& hm, const std::vector<int>& faces, 
   // find their closest point there too.
   const Mesh tess = tessellate(hm, 6, &ring);
   const TriangleGrid g = build_triangle_grid(tess);
+  // Dense points outside the elements' box have their closest point beyond them (the same in every
+  // candidate), and a grid search from outside its box visits every cell.
+  const Eigen::Array3d lo = tess.V.colwise().minCoeff().transpose(), hi = tess.V.colwise().maxCoeff().transpose();
   for (int f : dense_faces)
     for (Eigen::Index k = 0; k < dense_uv.rows(); ++k) {
       const double u = dense_uv(k, 0), v = dense_uv(k, 1);
       const Eigen::Vector3d x = (1 - u - v) * fine.V.row(fine.F(f, 0)) + u * fine.V.row(fine.F(f, 1)) +
                                 v * fine.V.row(fine.F(f, 2));
-      worst = std::max(worst, grid_distance(g, x));
+      if ((x.array() >= lo).all() && (x.array() <= hi).all()) worst = std::max(worst, grid_distance(g, x));
     }
   return worst;
 }
