@@ -5,6 +5,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <limits>
@@ -26,17 +27,33 @@ bool rows_differ(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, Eigen::Inde
   return n > 0 && a.middleRows(start, n) != b.middleRows(start, n);
 }
 
+/// max over i < n of value(i), in parallel; once a part reaches `bound` it skips the rest of its
+/// range (the result is then >= bound, whatever the schedule: the caller only compares it).
+template <class F>
+double parallel_max(size_t n, double bound, F&& value) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, n), 0.0,
+      [&](const tbb::blocked_range<size_t>& r, double m) {
+        for (size_t i = r.begin(); i < r.end() && m < bound; ++i) m = std::max(m, value(i));
+        return m;
+      },
+      [](double a, double b) { return std::max(a, b); });
+}
+
 /// The largest distance, both ways, between the elements `faces` of hm and the dense mesh: the
 /// elements' samples to the dense mesh, and the samples of `dense_faces` (those with a vertex that
 /// the map puts in the elements) to the elements and the ones around them (`ring`: faces too).
+/// Returns as soon as it reaches `bound` (the best so far: that candidate cannot win any more).
 double cluster_distance(const HighOrderMesh& hm, const std::vector<int>& faces, const std::vector<int>& ring,
                         const std::vector<int>& dense_faces, const Mesh& fine, const TriangleGrid& fine_grid,
-                        const Eigen::MatrixXd& uv, const Eigen::MatrixXd& dense_uv) {
-  double worst = 0;
-  for (int f : faces) {
-    const Eigen::MatrixXd S = evaluate_triangle(element_nodes(hm, f), hm.order, uv);
-    for (Eigen::Index k = 0; k < S.rows(); ++k) worst = std::max(worst, grid_distance(fine_grid, S.row(k).transpose()));
-  }
+                        const Eigen::MatrixXd& uv, const Eigen::MatrixXd& dense_uv, double bound) {
+  double worst = parallel_max(faces.size(), bound, [&](size_t i) {
+    const Eigen::MatrixXd S = evaluate_triangle(element_nodes(hm, faces[i]), hm.order, uv);
+    double m = 0;
+    for (Eigen::Index k = 0; k < S.rows(); ++k) m = std::max(m, grid_distance(fine_grid, S.row(k).transpose()));
+    return m;
+  });
+  if (worst >= bound) return worst;  // cannot win: ties go to the earlier candidate
   // With the elements around the cluster (the same in every candidate): dense points by its border
   // find their closest point there too.
   const Mesh tess = tessellate(hm, 6, &ring);
@@ -44,14 +61,17 @@ double cluster_distance(const HighOrderMesh& hm, const std::vector<int>& faces, 
   // Dense points outside the elements' box have their closest point beyond them (the same in every
   // candidate), and a grid search from outside its box visits every cell.
   const Eigen::Array3d lo = tess.V.colwise().minCoeff().transpose(), hi = tess.V.colwise().maxCoeff().transpose();
-  for (int f : dense_faces)
+  return std::max(worst, parallel_max(dense_faces.size(), bound, [&](size_t i) {
+    const int f = dense_faces[i];
+    double m = 0;
     for (Eigen::Index k = 0; k < dense_uv.rows(); ++k) {
       const double u = dense_uv(k, 0), v = dense_uv(k, 1);
       const Eigen::Vector3d x = (1 - u - v) * fine.V.row(fine.F(f, 0)) + u * fine.V.row(fine.F(f, 1)) +
                                 v * fine.V.row(fine.F(f, 2));
-      if ((x.array() >= lo).all() && (x.array() <= hi).all()) worst = std::max(worst, grid_distance(g, x));
+      if ((x.array() >= lo).all() && (x.array() <= hi).all()) m = std::max(m, grid_distance(g, x));
     }
-  return worst;
+    return m;
+  }));
 }
 
 }  // namespace
@@ -134,7 +154,7 @@ ClosestCandidateResult choose_closest_candidate(const std::vector<HighOrderMesh>
             if (element_nodes(candidates[c], f) != element_nodes(candidates[c0], f)) { seen = false; break; }
         }
         if (seen) continue;
-        const double d = cluster_distance(candidates[c], clusters[k], rings[k], dense_faces[k], fine, fine_grid, uv, dense_uv);
+        const double d = cluster_distance(candidates[c], clusters[k], rings[k], dense_faces[k], fine, fine_grid, uv, dense_uv, bd);
         if (d < bd) bd = d, best[k] = c;
       }
     }
