@@ -182,14 +182,15 @@ int offending_group(const JacobianBasis& basis, const Eigen::MatrixXd& nodes, co
   return -1;
 }
 
-/// Shrinks the snapped nodes of invalid elements toward their fit-blend positions
-/// (x = fit + s (snapped - fit), s *= shrink per round, per edge and face so that shared edge
-/// nodes stay conforming), re-checking the touched elements. With offending_only, an element
-/// that one node group (its face nodes, or one edge's) makes valid shrinks only that group:
-/// the others stay on the dense surface. Returns the elements touched.
 /// A node's position at shrink factor s (1: snapped, 0: fallback target), by storage row.
 using NodeAt = std::function<Eigen::RowVector3d(Eigen::Index row, double s)>;
 
+/// Shrinks the snapped nodes of invalid elements toward their fit-blend positions
+/// (x = fit + s (snapped - fit), s *= shrink per round, per edge and face so that shared edge
+/// nodes stay conforming), re-checking the touched elements; edge_at / face_at, when given, place
+/// the nodes at s instead (edge_fit / face_fit are then their positions at s = 0). With
+/// offending_only, an element that one node group (its face nodes, or one edge's) makes valid
+/// shrinks only that group: the others stay on the dense surface. Returns the elements touched.
 long long fall_back_to_fits(HighOrderMesh& hm, const Eigen::MatrixXd& edge_fit, const Eigen::MatrixXd& face_fit,
                             bool offending_only, const ValidityOptions& vopt, const NodeAt& edge_at = {},
                             const NodeAt& face_at = {}) {

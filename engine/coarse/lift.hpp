@@ -91,7 +91,9 @@ struct LiftResult {
   long long resnapped_elements = 0;     ///< invalid snapped elements re-snapped along straight normals
   long long fit_fallback_elements = 0;  ///< invalid snapped elements moved back toward the coarse-fit blend
   long long slid_clusters = 0, slid_elements = 0;  ///< clusters (elements) that took a sliding candidate
-  ValidityReport validity;     ///< of the final repair_validity (invalid_before: after the fit fallback)
+  /// Of the final repair_validity of the fit-fallback way (invalid_before: after the fit fallback);
+  /// invalid_after, min_scaled_jacobian and invalid_faces: of the final mesh.
+  ValidityReport validity;
   double bbox_diagonal = 0;
   double seconds_dense = 0, seconds_coarse_fits = 0, seconds_placement = 0, seconds_validity = 0,
          seconds_total = 0;
