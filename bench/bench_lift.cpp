@@ -11,6 +11,7 @@
 #include "engine/coarse/lift.hpp"
 #include "engine/coarse/surface_distance.hpp"
 #include "engine/curving/test_meshes.hpp"
+#include "engine/highorder/bezier.hpp"
 #include "engine/highorder/lagrange.hpp"
 #include "engine/highorder/validity.hpp"
 #include "engine/io/read_mesh.hpp"
@@ -240,14 +241,11 @@ void real(const std::string& file, double ratio, int p) {
     }
     {
       // The element whose surface strays furthest from the input (samples, not nodes).
-      Eigen::MatrixXd uv(45, 2);
-      int r = 0;
-      for (int j = 0; j <= 8; ++j)
-        for (int i = 0; i + j <= 8; ++i) uv.row(r++) << i / 8.0, j / 8.0;
+      const Eigen::MatrixXd uv = bernstein_lattice(8);
       double ws = 0;
       int fs = -1;
       for (int f = 0; f < L.mesh.num_faces(); ++f) {
-        const Eigen::MatrixXd S = evaluate_triangle(element_nodes(L.mesh, f), p, uv.topRows(r));
+        const Eigen::MatrixXd S = evaluate_triangle(element_nodes(L.mesh, f), p, uv);
         for (Eigen::Index i = 0; i < S.rows(); ++i) {
           const double d = grid_distance(G, S.row(i).transpose());
           if (d > ws) ws = d, fs = f;

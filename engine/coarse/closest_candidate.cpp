@@ -1,6 +1,7 @@
 #include "engine/coarse/closest_candidate.hpp"
 
 #include "engine/core/union_find.hpp"
+#include "engine/highorder/bezier.hpp"
 #include "engine/highorder/lagrange.hpp"
 
 #include <tbb/blocked_range.h>
@@ -14,14 +15,6 @@
 namespace hocurve {
 
 namespace {
-
-/// The barycentric lattice of degree q, (u, v) per row.
-Eigen::MatrixXd lattice(int q) {
-  Eigen::MatrixXd uv((q + 1) * (q + 2) / 2, 2);
-  for (int j = 0, r = 0; j <= q; ++j)
-    for (int i = 0; i + j <= q; ++i) uv.row(r++) << double(i) / q, double(j) / q;
-  return uv;
-}
 
 bool rows_differ(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, Eigen::Index start, int n) {
   return n > 0 && a.middleRows(start, n) != b.middleRows(start, n);
@@ -116,7 +109,7 @@ ClosestCandidateResult choose_closest_candidate(const std::vector<HighOrderMesh>
   }
   R.clusters = static_cast<int>(clusters.size());
   std::vector<std::vector<int>> dense_faces(clusters.size());
-  for (int f = 0; f < fine.num_faces(); ++f) {
+  for (int f = 0; f < fine.num_faces(); ++f) {  // increasing f: each list sorted, no repeats
     int last = -1;
     for (int j = 0; j < 3; ++j) {
       const int cf = map.vertex_coarse_face[fine.F(f, j)];
@@ -125,7 +118,6 @@ ClosestCandidateResult choose_closest_candidate(const std::vector<HighOrderMesh>
       if (k != last) dense_faces[k].push_back(f), last = k;
     }
   }
-  for (auto& d : dense_faces) d.erase(std::unique(d.begin(), d.end()), d.end());
   // Each cluster with every element that shares a corner with it.
   std::vector<std::vector<int>> vertex_faces(out.V.rows());
   for (int f = 0; f < nf; ++f)
@@ -140,7 +132,7 @@ ClosestCandidateResult choose_closest_candidate(const std::vector<HighOrderMesh>
   }
 
   // Each cluster's closest candidate.
-  const Eigen::MatrixXd uv = lattice(std::max(samples, out.order)), dense_uv = lattice(3);
+  const Eigen::MatrixXd uv = bernstein_lattice(std::max(samples, out.order)), dense_uv = bernstein_lattice(3);
   std::vector<int> best(clusters.size(), 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, clusters.size()), [&](const tbb::blocked_range<size_t>& rg) {
     for (size_t k = rg.begin(); k < rg.end(); ++k) {
