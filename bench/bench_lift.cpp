@@ -9,6 +9,7 @@
 // bench/LIFT.md.
 #include "engine/coarse/decimate.hpp"
 #include "engine/coarse/lift.hpp"
+#include "engine/coarse/refine.hpp"
 #include "engine/coarse/surface_distance.hpp"
 #include "engine/curving/test_meshes.hpp"
 #include "engine/highorder/bezier.hpp"
@@ -38,6 +39,7 @@ double now() { return std::chrono::duration<double>(std::chrono::steady_clock::n
 struct Run {
   DecimateResult dec;
   LiftResult lift;
+  std::string refine;  ///< lift_and_refine's message (BENCH_LIFT_TOL)
   double decimate = 0, map = 0, lift_seconds = 0;
 };
 
@@ -73,7 +75,20 @@ Run coarsen(const Mesh& fine, DecimateOptions dopt, int p) {
   const double t1 = now();
   r.map = r.dec.seconds_flatten + r.dec.seconds_tracking;
   r.decimate = (t1 - t0) - r.map;
-  r.lift = lift_coarse(fine, r.dec, lift_options(dopt, p));
+  if (const char* e = std::getenv("BENCH_LIFT_TOL")) {
+    RefineOptions ro;
+    ro.tolerance = std::atof(e);
+    if (const char* m = std::getenv("BENCH_LIFT_SPLITFOLD")) ro.split.max_normal_change_deg = std::atof(m);
+    if (const char* m = std::getenv("BENCH_LIFT_MAXRATIO")) ro.max_faces = static_cast<int>(std::atof(m) * fine.num_faces());
+    RefineResult rr = lift_and_refine(fine, r.dec, lift_options(dopt, p), ro);
+    r.lift = std::move(rr.lift);
+    char buf[200];
+    std::snprintf(buf, sizeof buf, " [largest element deviation %.3f%% -> %.3f%%; measure %.2f s, split %.2f s, lift %.2f s]",
+                  100 * rr.deviation_before, 100 * rr.deviation_after, rr.seconds_measure, rr.seconds_split, rr.seconds_lift);
+    r.refine = rr.message + buf;
+  } else {
+    r.lift = lift_coarse(fine, r.dec, lift_options(dopt, p));
+  }
   r.lift_seconds = now() - t1;
   return r;
 }
@@ -199,6 +214,14 @@ void real(const std::string& file, double ratio, int p) {
               L.validity.invalid_after, L.resnapped_elements, L.fit_fallback_elements, L.slid_elements, L.slid_clusters, L.validity.repaired, L.dense_feature_edges, L.coarse_feature_edges,
               r.decimate, r.map, r.lift_seconds);
   if (!D.reached_target) std::printf("    %s\n", D.message.c_str());
+  if (!r.refine.empty()) std::printf("    refine: %s\n", r.refine.c_str());
+  if (std::getenv("BENCH_LIFT_ELEMENTS")) {
+    const std::vector<double> dev = element_deviation(L.mesh, fine);
+    std::printf("    element deviation max %.3f%%; elements above", 100 * *std::max_element(dev.begin(), dev.end()) / diag);
+    for (double t : {0.3, 0.4, 0.5, 0.7})
+      std::printf(" %.1f%%: %ld", t, std::count_if(dev.begin(), dev.end(), [&](double x) { return x > t * diag / 100; }));
+    std::printf("\n");
+  }
   if (std::getenv("BENCH_LIFT_DEBUG")) {
     lopt.repair = false;
     const LiftResult U = lift_coarse(fine, D, lopt);

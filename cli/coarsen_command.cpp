@@ -5,6 +5,7 @@
 
 #include "engine/coarse/decimate.hpp"
 #include "engine/coarse/lift.hpp"
+#include "engine/coarse/refine.hpp"
 #include "engine/coarse/vertex_fans.hpp"
 #include "engine/core/error.hpp"
 #include "engine/highorder/validity.hpp"
@@ -32,6 +33,8 @@ const std::vector<OptionSpec> kCoarsenOptions = {
     {"threads", true, "worker threads (default: all cores)"},
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
     {"max-deviation", true, "refuse collapses moving a dense vertex > F x diagonal off the coarse faces (default 0.015; 0: off)"},
+    {"tolerance", true, "then split edges where the curved mesh is further than F x diagonal from the input (default 0: off)"},
+    {"max-faces", true, "with --tolerance: never more coarse triangles than this (default: no limit)"},
     {"long-edge-ratio", true, "dense edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
     {"progress", false, "print progress as JSON lines on stdout"},
     {"help", false, "show this help", 'h'},
@@ -41,9 +44,12 @@ const char* kCoarsenUsage =
     "usage: hocurve coarsen INPUT -o OUTPUT.msh --order P (--faces N | --ratio R)\n"
     "                       [--nodes equispaced|lobatto] [--format msh41|msh22] [--binary]\n"
     "                       [--stats STATS.json] [--threads N] [--feature-angle DEG]\n"
-    "                       [--max-deviation F] [--long-edge-ratio R] [--progress]\n"
+    "                       [--max-deviation F] [--tolerance F [--max-faces N]]\n"
+    "                       [--long-edge-ratio R] [--progress]\n"
     "Decimates a linear triangle surface mesh to N triangles (or R x its count), keeping feature\n"
-    "curves, and curves the coarse triangles to order P so that they stay on the dense surface.\n";
+    "curves, and curves the coarse triangles to order P so that they stay on the dense surface.\n"
+    "With --tolerance, elements further than F x the bounding-box diagonal from the input (both\n"
+    "ways) then split their longest edges and the mesh is curved again, while faces remain.\n";
 
 nlohmann::json histogram(const std::vector<long long>& h) {
   nlohmann::json j = nlohmann::json::array();
@@ -118,6 +124,20 @@ nlohmann::json lift_json(const LiftResult& l) {
             {"total", l.seconds_total}}}};
 }
 
+nlohmann::json refinement_json(const RefineResult& r, const RefineOptions& o) {
+  return {{"tolerance", o.tolerance},
+          {"max_faces", o.max_faces},
+          {"reached", r.reached},
+          {"message", r.message},
+          {"faces_before", r.faces_before},
+          {"rounds", r.rounds},
+          {"splits", r.splits},
+          {"refused", r.refused},
+          {"deviation_before_relative", r.deviation_before},
+          {"deviation_after_relative", r.deviation_after},
+          {"seconds", {{"measure", r.seconds_measure}, {"split", r.seconds_split}, {"lift", r.seconds_lift}}}};
+}
+
 }  // namespace
 
 int run_coarsen(int argc, char** argv) {
@@ -142,6 +162,10 @@ int run_coarsen(int argc, char** argv) {
   lopt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
   lopt.features = feature_options(dopt);
   lopt.long_edges.ratio = a.get_double("long-edge-ratio", lopt.long_edges.ratio, 0.0, 1e9);
+  RefineOptions ropt;
+  ropt.tolerance = a.get_double("tolerance", 0.0, 0.0, 1.0);
+  ropt.max_faces = static_cast<int>(a.get_int("max-faces", 0, 4, 100000000));
+  if (a.has("max-faces") && !a.has("tolerance")) throw UsageError("--max-faces needs --tolerance");
   MshOptions msh;
   msh.version = a.get_choice("format", "msh41", {"msh41", "msh22"}) == "msh22" ? MshOptions::Version::V22
                                                                               : MshOptions::Version::V41;
@@ -163,10 +187,13 @@ int run_coarsen(int argc, char** argv) {
   // Non-manifold vertices (parts touching at a point): one pinned copy per fan of faces.
   const FanSplit split = split_vertex_fans(in.mesh);
   dopt.pinned_vertices = split.pinned;
-  const DecimateResult dec = decimate(split.mesh, dopt);
+  DecimateResult dec = decimate(split.mesh, dopt);
   if (!dec.reached_target) std::cerr << "hocurve coarsen: warning: " << dec.message << "\n";
   const double t2 = now_seconds();
-  const LiftResult lift = lift_coarse(split.mesh, dec, lopt);
+  const nlohmann::json decimation = decimation_json(dec, t2 - t1);  // before any refinement splits
+  const RefineResult refined = lift_and_refine(split.mesh, dec, lopt, ropt);
+  if (ropt.tolerance > 0 && !refined.reached) std::cerr << "hocurve coarsen: warning: " << refined.message << "\n";
+  const LiftResult& lift = refined.lift;
   // The split parts meet again at their pinned copies: one vertex and one edge each, as in the input.
   HighOrderMesh result;
   ValidityReport rejoined;
@@ -185,10 +212,11 @@ int run_coarsen(int argc, char** argv) {
     nlohmann::json s;
     s["generator"] = std::string("hocurve ") + HOCURVE_VERSION;
     s["input"] = input_json(input, in);
-    s["decimation"] = decimation_json(dec, t2 - t1);
+    s["decimation"] = decimation;
     s["decimation"]["split_vertices"] = split.split_vertices;
     s["decimation"]["nonmanifold_edges"] = split.nonmanifold_edges;
     s["lifting"] = lift_json(lift);
+    s["refinement"] = refinement_json(refined, ropt);
     s["rejoin"] = {{"vertices", lift.mesh.V.rows() - out.V.rows()},
                    {"invalid_before", rejoined.invalid_before},
                    {"repaired", rejoined.repaired},

@@ -141,16 +141,6 @@ void check_manifold(const Mesh& m, const Topology& T) {
                                   " joins several fans of faces: non-manifold (split_vertex_fans() gives each fan its own copy)");
 }
 
-double min_angle_cos_max(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  // Largest cosine among the three angles = cosine of the smallest angle.
-  auto cosang = [](const Eigen::Vector3d& o, const Eigen::Vector3d& p, const Eigen::Vector3d& q) {
-    const Eigen::Vector3d u = p - o, v = q - o;
-    const double d = u.norm() * v.norm();
-    return d > 0 ? u.dot(v) / d : 1.0;
-  };
-  return std::max({cosang(a, b, c), cosang(b, c, a), cosang(c, a, b)});
-}
-
 struct Entry {
   double cost;
   int a, b;
@@ -478,6 +468,16 @@ Reason Decimator::check_and_collapse(const Plan& P, bool may_defer, double& devi
 
 }  // namespace
 
+double min_angle_cos_max(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  // Largest cosine among the three angles = cosine of the smallest angle.
+  auto cosang = [](const Eigen::Vector3d& o, const Eigen::Vector3d& p, const Eigen::Vector3d& q) {
+    const Eigen::Vector3d u = p - o, v = q - o;
+    const double d = u.norm() * v.norm();
+    return d > 0 ? u.dot(v) / d : 1.0;
+  };
+  return std::max({cosang(a, b, c), cosang(b, c, a), cosang(c, a, b)});
+}
+
 DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
   const auto t0 = Clock::now();
   DecimateResult R;
@@ -654,16 +654,11 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
       for (int k = M.rec_face_start[c]; k < M.rec_face_start[c + 1]; ++k) M.face_rec[fill[M.rec_face[k]]++] = c;
     M.vertex_coarse_face.resize(nv);
     M.vertex_coarse_bary.resize(nv, 3);
-    M.cf_start.assign(ncf + 1, 0);
     for (int v = 0; v < nv; ++v) {
       M.vertex_coarse_face[v] = fmap[D.pt_face[v]];
       M.vertex_coarse_bary.row(v) = D.pt_bary[v].transpose();
-      ++M.cf_start[M.vertex_coarse_face[v] + 1];
     }
-    for (int f = 0; f < ncf; ++f) M.cf_start[f + 1] += M.cf_start[f];
-    M.cf_vertices.resize(nv);
-    std::vector<int> cfill(M.cf_start.begin(), M.cf_start.end() - 1);
-    for (int v = 0; v < nv; ++v) M.cf_vertices[cfill[M.vertex_coarse_face[v]]++] = v;
+    index_fine_vertices(M);
   }
   R.seconds_flatten = D.t_flatten;
   R.seconds_tracking = D.t_track;

@@ -68,7 +68,8 @@ struct RejectCounts {
 struct DecimateResult {
   Mesh coarse;                      ///< keeps face entities and physical groups of the input
   CoarseMap map;                    ///< empty when build_map is false
-  std::vector<int> coarse_vertex_origin;  ///< coarse vertex -> the fine vertex it continues
+  /// Coarse vertex -> the fine vertex it continues (-1: made by split_coarse_edges).
+  std::vector<int> coarse_vertex_origin;
   /// Coarse vertex on a feature curve the decimation kept: it never moved (it sits on its origin).
   std::vector<char> coarse_vertex_feature;
   std::vector<char> coarse_vertex_pinned;  ///< coarse vertex continues a pinned vertex (it never moved)
@@ -81,6 +82,9 @@ struct DecimateResult {
   int feature_edges = 0, corners = 0;
   double seconds_total = 0, seconds_flatten = 0, seconds_tracking = 0;
 };
+
+/// Cosine of the smallest angle of triangle abc (1 when degenerate): the sliver measure.
+double min_angle_cos_max(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);
 
 /// Decimates a closed or open, edge- and vertex-manifold triangle mesh by quadric-error edge
 /// collapses down to the target face count (or as close as the safety checks allow), and builds

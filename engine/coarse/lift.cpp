@@ -12,6 +12,7 @@
 
 #include <chrono>
 #include <algorithm>
+#include <optional>
 #include <cmath>
 #include <limits>
 #include <functional>
@@ -48,8 +49,8 @@ std::vector<char> coarse_feature_edges(const Mesh& coarse, const Topology& Tc, c
     const int a = Tc.E(e, 0), b = Tc.E(e, 1);
     // Both ends on a curve in the decimation too: a vertex that the decimation moved freely (its
     // origin on a soft crease it dropped) is not on the dense curve.
-    if (vf.empty() || !vf[dec.coarse_vertex_origin[a]] || !vf[dec.coarse_vertex_origin[b]] ||
-        !dec.coarse_vertex_feature[a] || !dec.coarse_vertex_feature[b])
+    if (vf.empty() || !dec.coarse_vertex_feature[a] || !dec.coarse_vertex_feature[b] ||
+        !vf[dec.coarse_vertex_origin[a]] || !vf[dec.coarse_vertex_origin[b]])
       return;
     const int f = faces[0];
     Eigen::Vector3d xi = Eigen::Vector3d::Zero();
@@ -263,7 +264,17 @@ FeatureOptions feature_options(const DecimateOptions& d) {
   return f;
 }
 
-LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOptions& opt) {
+DenseSurfaceOptions dense_surface_options(const LiftOptions& opt) {
+  DenseSurfaceOptions dso;
+  dso.degree = opt.dense_degree;
+  dso.max_lift = opt.max_lift;
+  dso.features = opt.features;
+  dso.fit = opt.fit;
+  dso.long_edges = opt.long_edges;
+  return dso;
+}
+
+LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOptions& opt, const DenseSurface* dense) {
   if (opt.order < 2 || opt.order > 6) throw UsageError("lift order " + std::to_string(opt.order) + " is outside 2..6");
   const CoarseMap& map = dec.map;
   if (static_cast<int>(map.vertex_coarse_face.size()) != fine.num_vertices() ||
@@ -282,19 +293,15 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
 
   // 1. The dense reference surface.
   progress("dense fits", 0.0);
-  DenseSurfaceOptions dso;
-  dso.degree = opt.dense_degree;
-  dso.max_lift = opt.max_lift;
-  dso.features = opt.features;
-  dso.fit = opt.fit;
-  dso.long_edges = opt.long_edges;
-  const DenseSurface S = build_dense_surface(fine, dso);
+  std::optional<DenseSurface> own;
+  if (!dense) own = build_dense_surface(fine, dense_surface_options(opt));
+  const DenseSurface& S = dense ? *dense : *own;
   R.dense_feature_edges = S.features.feature_edges;
   R.dense_corners = S.features.corners;
   R.dense_fits = S.fits;
   R.dense_curve_fits = S.curves.fitted;
   R.dense_support = S.support_used;
-  R.seconds_dense = S.seconds;
+  R.seconds_dense = dense ? 0.0 : S.seconds;  // a given surface was paid for by the caller
 
   // 2. Coarse topology, features, and corners on the dense surface.
   progress("coarse features", 0.45);
@@ -307,10 +314,11 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
   std::vector<char> on_curve(ncv, 0);
   for (int e = 0; e < Tc.num_edges(); ++e)
     if (cfeat[e]) on_curve[Tc.E(e, 0)] = on_curve[Tc.E(e, 1)] = 1, ++R.coarse_feature_edges;
+  R.coarse_edge_feature = cfeat;
   std::vector<int> clamps(ncv, 0), steps(ncv, 0);
   parallel(ncv, [&](int v) {
     const int o = dec.coarse_vertex_origin[v];
-    if ((S.features.vertex_corner[o] && dec.coarse_vertex_feature[v]) || dec.coarse_vertex_pinned[v]) {  // else moved off it
+    if ((o >= 0 && S.features.vertex_corner[o] && dec.coarse_vertex_feature[v]) || dec.coarse_vertex_pinned[v]) {  // else moved off it
       coarse.V.row(v) = fine.V.row(o);
       return;
     }

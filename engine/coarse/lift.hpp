@@ -76,6 +76,8 @@ struct LiftResult {
   bool dense_support = false;
   // coarse fits
   long long coarse_feature_edges = 0;
+  /// Per edge of build_topology(dec.coarse.F): on a dense feature curve (its nodes follow the curve).
+  std::vector<char> coarse_edge_feature;
   long long coarse_wedges = 0;
   std::vector<long long> coarse_degree_histogram;  ///< [d] = coarse fits of final degree d
   double coarse_mean_points = 0;
@@ -99,8 +101,14 @@ struct LiftResult {
          seconds_total = 0;
 };
 
+/// The dense reference surface options of a lifting.
+DenseSurfaceOptions dense_surface_options(const LiftOptions& opt);
+
 /// Lifts the coarse mesh of `dec` (built with build_map) to an order-p curved mesh on the dense
-/// surface of `fine`. Throws UsageError for an order outside 2..6 or a result without its map.
-LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOptions& opt = {});
+/// surface of `fine` (built here, or `dense` if given: build_dense_surface(fine,
+/// dense_surface_options(opt))). Throws UsageError for an order outside 2..6 or a result without
+/// its map.
+LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOptions& opt = {},
+                       const DenseSurface* dense = nullptr);
 
 }  // namespace hocurve

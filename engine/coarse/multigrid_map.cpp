@@ -2,6 +2,8 @@
 
 #include "engine/core/error.hpp"
 
+#include <Eigen/LU>
+
 #include <algorithm>
 #include <string>
 
@@ -101,6 +103,16 @@ SurfacePoint fine_to_coarse(const CoarseMap& M, int fine_face, const Eigen::Vect
   SurfacePoint sp;
   sp.face = M.face_to_coarse[face];
   if (sp.face < 0) throw std::logic_error("fine_to_coarse: ended in a collapsed face");
+  if (!M.split_next.empty()) {  // the decimated face was split: the piece that holds b
+    const Eigen::Vector3d base = b;
+    double best = -1e300;
+    for (int f = sp.face; f >= 0; f = M.split_next[f]) {
+      const Eigen::Vector3d l = M.split_to_base[f].inverse() * base;
+      if (l.minCoeff() > best) best = l.minCoeff(), sp.face = f, b = l;
+    }
+    for (int k = 0; k < 3; ++k) b[k] = std::max(b[k], 0.0);
+    b /= b.sum();
+  }
   sp.bary = b;
   sp.position = interpolate(M.coarse_V, M.coarse_F, sp.face, b);
   return sp;
@@ -111,6 +123,7 @@ SurfacePoint coarse_to_fine(const CoarseMap& M, int coarse_face, const Eigen::Ve
     throw InputError("coarse_to_fine", "coarse face " + std::to_string(coarse_face) + " out of range");
   int face = M.coarse_face_id[coarse_face];
   Eigen::Vector3d b = bary / bary.sum();
+  if (!M.split_to_base.empty()) b = M.split_to_base[coarse_face] * b;
   int t = M.num_collapses();  // collapses < t may apply
   for (;;) {
     const int* beg = M.face_rec.data() + M.face_rec_start[face];
@@ -126,6 +139,16 @@ SurfacePoint coarse_to_fine(const CoarseMap& M, int coarse_face, const Eigen::Ve
   sp.bary = b;
   sp.position = interpolate(M.fine_V, M.fine_F, face, b);
   return sp;
+}
+
+void index_fine_vertices(CoarseMap& M) {
+  const int nv = static_cast<int>(M.vertex_coarse_face.size()), ncf = static_cast<int>(M.coarse_F.rows());
+  M.cf_start.assign(ncf + 1, 0);
+  for (int v = 0; v < nv; ++v) ++M.cf_start[M.vertex_coarse_face[v] + 1];
+  for (int f = 0; f < ncf; ++f) M.cf_start[f + 1] += M.cf_start[f];
+  M.cf_vertices.resize(nv);
+  std::vector<int> fill(M.cf_start.begin(), M.cf_start.end() - 1);
+  for (int v = 0; v < nv; ++v) M.cf_vertices[fill[M.vertex_coarse_face[v]]++] = v;
 }
 
 Eigen::SparseMatrix<double> prolongation(const CoarseMap& M) {

@@ -61,6 +61,14 @@ struct CoarseMap {
   /// Coarse face -> fine vertices mapped into it (CSR), for gathering MLS fit points.
   std::vector<int> cf_start, cf_vertices;
 
+  // --- edge splits after the decimation (split_coarse_edges); both empty when there are none ---
+  /// Per coarse face: its barycentrics -> barycentrics on the decimated face it lies in (the
+  /// collapse records know only those; coarse_face_id names its fine id).
+  std::vector<Eigen::Matrix3d> split_to_base;
+  /// Per coarse face: the next coarse face inside the same decimated face, -1 after the last
+  /// (face_to_coarse names the first).
+  std::vector<int> split_next;
+
   int num_collapses() const { return static_cast<int>(rec_edge.size()); }
   /// The fine vertices whose image lies in coarse face f.
   std::pair<const int*, const int*> fine_vertices_in(int coarse_face) const {
@@ -74,6 +82,9 @@ struct MapQueryStats {
   long long steps = 0, clamped = 0;
   double worst_outside = 0;  ///< most negative barycentric seen before clamping (as a positive number)
 };
+
+/// Rebuilds cf_start / cf_vertices from vertex_coarse_face (#coarse faces from coarse_F).
+void index_fine_vertices(CoarseMap& map);
 
 /// Maps a point of the fine mesh (fine face, barycentric) onto the coarse mesh by replaying the
 /// collapses that touch it in order.

@@ -47,4 +47,10 @@ struct HausdorffResult {
 /// degree-n lattice; exact closest points on the other mesh). TBB-parallel.
 HausdorffResult hausdorff_distance(const Mesh& A, const Mesh& B, int n = 4);
 
+/// Per element of the curved mesh hm, its share of the two-sided Hausdorff distance to the dense
+/// mesh: the largest distance from the element's points (tessellated n x n, sampled at the degree-4
+/// lattice) to the dense mesh, and from the dense samples (degree-4 lattice) whose closest point on
+/// hm lies in the element. The maximum over elements is hausdorff_distance(dense, tessellate(hm, n)).
+std::vector<double> element_deviation(const HighOrderMesh& hm, const Mesh& dense, int n = 8);
+
 }  // namespace hocurve

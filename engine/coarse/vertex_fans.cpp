@@ -73,6 +73,7 @@ FanSplit split_vertex_fans(const Mesh& m) {
 std::vector<int> coarse_vertex_copies(const FanSplit& split, const std::vector<int>& origin) {
   std::vector<int> first(split.original.size(), -1), same(origin.size());
   for (std::size_t c = 0; c < origin.size(); ++c) {
+    if (origin[c] < 0) { same[c] = static_cast<int>(c); continue; }  // made by a split: no copies
     int& f = first[split.original[origin[c]]];
     if (f < 0) f = static_cast<int>(c);
     same[c] = f;

@@ -36,7 +36,8 @@ FanSplit split_vertex_fans(const Mesh& m);
 /// under a fin), else the mean of the copies (open boundaries fitted to the same dense curve).
 /// Face nodes, entities and groups are kept. Validity is not checked here.
 /// same[] for rejoin_vertex_copies of a coarse mesh decimated from split.mesh, whose vertex c
-/// continues split vertex origin[c]: the first coarse vertex continuing the same input vertex.
+/// continues split vertex origin[c]: the first coarse vertex continuing the same input vertex
+/// (itself when origin[c] < 0).
 std::vector<int> coarse_vertex_copies(const FanSplit& split, const std::vector<int>& origin);
 
 HighOrderMesh rejoin_vertex_copies(const HighOrderMesh& hm, const std::vector<int>& same);

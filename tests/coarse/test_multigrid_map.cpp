@@ -3,6 +3,8 @@
 #include "coarse/coarse_test_meshes.hpp"
 #include "engine/coarse/decimate.hpp"
 #include "engine/coarse/flatten.hpp"
+#include "engine/coarse/split_edges.hpp"
+#include "engine/coarse/surface_distance.hpp"
 #include "engine/core/error.hpp"
 #include "engine/core/topology.hpp"
 #include "engine/curving/test_meshes.hpp"
@@ -11,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <random>
 
 #if __has_include("engine/io/read_mesh.hpp")
@@ -188,6 +191,57 @@ TEST_CASE("map on a torus (4096 -> 4%)") {
   const Mesh fine = coarse_test::torus(64, 32, 1.0, 0.4);
   const DecimateResult R = decimate(fine, {});
   MESSAGE(R.message);
+  check_map(fine, R, 2000);
+}
+
+TEST_CASE("edge splits after the decimation keep the map a bijection, the mesh closed and oriented") {
+  const Mesh fine = coarse_test::torus(64, 32, 1.0, 0.4);
+  DecimateResult R = decimate(fine, {});
+  const int nf0 = R.coarse.num_faces(), nv0 = R.coarse.num_vertices();
+  // Two rounds (the second splits halves made by the first): each round the longest edge of every
+  // 6th face whose faces are not taken yet, and one group whose first choice is not an edge.
+  int split = 0;
+  for (int round = 0; round < 2; ++round) {
+    const Topology T = build_topology(R.coarse.F, R.coarse.num_vertices());
+    std::vector<char> taken(R.coarse.num_faces(), 0);
+    std::vector<std::vector<std::array<int, 2>>> groups = {{{0, 0}}};
+    for (int f = round; f < R.coarse.num_faces(); f += 6) {
+      int e = T.FE(f, 0);
+      for (int j = 1; j < 3; ++j)
+        if ((R.coarse.V.row(T.E(T.FE(f, j), 0)) - R.coarse.V.row(T.E(T.FE(f, j), 1))).norm() >
+            (R.coarse.V.row(T.E(e, 0)) - R.coarse.V.row(T.E(e, 1))).norm())
+          e = T.FE(f, j);
+      const int g = T.edge_faces[e][0] == f ? T.edge_faces[e][1] : T.edge_faces[e][0];
+      if (taken[f] || taken[g]) continue;
+      taken[f] = taken[g] = 1;
+      groups.push_back({{{0, 0}}, {T.E(e, 0), T.E(e, 1)}});  // the first alternative is refused
+    }
+    const SplitResult S = split_coarse_edges(R, groups);
+    CHECK(S.refused >= 1);
+    split += S.split;
+  }
+  MESSAGE(split << " splits: " << nf0 << " -> " << R.coarse.num_faces() << " faces");
+  CHECK(split > 20);
+  CHECK(R.coarse.num_faces() == nf0 + 2 * split);
+  CHECK(R.coarse.num_vertices() == nv0 + split);
+  CHECK(R.coarse_vertex_origin.size() == static_cast<size_t>(R.coarse.num_vertices()));
+  // Closed and consistently oriented: every directed edge once, its reverse once.
+  std::map<std::pair<int, int>, int> directed;
+  for (int f = 0; f < R.coarse.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j) ++directed[{R.coarse.F(f, j), R.coarse.F(f, (j + 1) % 3)}];
+  int bad = 0;
+  for (const auto& [e, n] : directed) bad += n != 1 || !directed.count({e.second, e.first});
+  CHECK(bad == 0);
+  // The new vertices lie on the dense surface: no further from the torus than its facets are.
+  auto torus_distance = [](const Eigen::Vector3d& x) {
+    return std::abs(std::hypot(std::hypot(x[0], x[1]) - 1.0, x[2]) - 0.4);
+  };
+  double off = 0, sag = 0;
+  for (int v = nv0; v < R.coarse.num_vertices(); ++v) off = std::max(off, torus_distance(R.coarse.V.row(v).transpose()));
+  const Eigen::MatrixXd P = sample_faces(fine, 8);
+  for (Eigen::Index i = 0; i < P.rows(); ++i) sag = std::max(sag, torus_distance(P.row(i).transpose()));
+  MESSAGE("new vertices off the torus " << off << ", dense facets " << sag);
+  CHECK(off <= sag);
   check_map(fine, R, 2000);
 }
 

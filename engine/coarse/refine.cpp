@@ -1,0 +1,132 @@
+#include "engine/coarse/refine.hpp"
+
+#include "engine/coarse/surface_distance.hpp"
+#include "engine/core/topology.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <memory>
+#include <numeric>
+
+namespace hocurve {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+/// Per element in `worst` (worst first, at most budget of them), the edge to split: the terminal
+/// edge of its longest-edge propagation path (Rivara's LEPP: from the element across its longest
+/// edge until two neighbours share their longest edge), so that bisection does not make thinner
+/// triangles; the edge before it on the path when the terminal edge may not split. An edge may
+/// split when it lies between two faces of one entity and not on a feature curve (the lifting's
+/// feature_edge, per edge of build_topology(dec.coarse.F)).
+std::vector<std::vector<std::array<int, 2>>> edges_to_split(const DecimateResult& dec,
+                                                            const std::vector<char>& feature_edge,
+                                                            const std::vector<int>& worst, int budget) {
+  const Mesh& C = dec.coarse;
+  const Topology T = build_topology(C.F, C.num_vertices());
+  auto length = [&](int e) { return (C.V.row(T.E(e, 0)) - C.V.row(T.E(e, 1))).squaredNorm(); };
+  auto longest = [&](int f) {
+    int best = T.FE(f, 0);
+    for (int j = 1; j < 3; ++j)
+      if (length(T.FE(f, j)) > length(best)) best = T.FE(f, j);
+    return best;
+  };
+  std::vector<char> taken(T.num_edges(), 0);
+  auto may_split = [&](int e) {
+    const auto& ef = T.edge_faces[e];
+    return !taken[e] && ef.size() == 2 && C.entity_of(ef[0]) == C.entity_of(ef[1]) && !feature_edge[e];
+  };
+  std::vector<std::vector<std::array<int, 2>>> out;
+  for (int f : worst) {
+    if (static_cast<int>(out.size()) >= budget) break;
+    int e = longest(f), before = -1;
+    for (int step = 0; step < 64 && T.edge_faces[e].size() == 2; ++step) {
+      const int g = T.edge_faces[e][0] == f ? T.edge_faces[e][1] : T.edge_faces[e][0];
+      const int eg = longest(g);
+      if (eg == e) break;  // terminal edge
+      before = e, f = g, e = eg;
+    }
+    if (!may_split(e)) e = before;
+    if (e < 0 || !may_split(e)) continue;
+    taken[e] = 1;
+    out.push_back({{T.E(e, 0), T.E(e, 1)}});
+  }
+  return out;
+}
+
+}  // namespace
+
+RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOptions& lopt, const RefineOptions& opt) {
+  RefineResult R;
+  const DenseSurface S = build_dense_surface(fine, dense_surface_options(lopt));
+  auto t = Clock::now();
+  R.lift = lift_coarse(fine, dec, lopt, &S);
+  R.lift.seconds_dense = S.seconds;
+  R.seconds_lift += seconds_since(t);
+  R.faces_before = dec.coarse.num_faces();
+  const double diag = R.lift.bbox_diagonal, tol = opt.tolerance * diag;
+  if (opt.tolerance <= 0) {
+    R.message = "no refinement (tolerance 0)";
+    return R;
+  }
+  std::unique_ptr<std::pair<DecimateResult, LiftResult>> best;  // the round with the smallest largest deviation
+  double best_deviation = 0;
+  int best_rounds = 0;
+  for (;;) {
+    t = Clock::now();
+    const std::vector<double> dev = element_deviation(R.lift.mesh, fine);
+    R.seconds_measure += seconds_since(t);
+    std::vector<int> worst;
+    for (int f = 0; f < static_cast<int>(dev.size()); ++f)
+      if (dev[f] > tol) worst.push_back(f);
+    std::stable_sort(worst.begin(), worst.end(), [&](int a, int b) { return dev[a] > dev[b]; });
+    R.deviation_after = (dev.empty() ? 0.0 : *std::max_element(dev.begin(), dev.end())) / diag;
+    if (R.rounds == 0) R.deviation_before = R.deviation_after;
+    // The largest deviation can rise (new fits and repairs around the splits): keep the best.
+    if (R.rounds == 0 || R.deviation_after < best_deviation) {
+      best_deviation = R.deviation_after;
+      best_rounds = R.rounds;
+      best = std::make_unique<std::pair<DecimateResult, LiftResult>>(dec, R.lift);
+    }
+    const int nf = dec.coarse.num_faces();
+    if (worst.empty()) {
+      R.reached = true;
+      R.message = "every element within the tolerance";
+      break;
+    }
+    if (R.rounds >= opt.max_rounds) {
+      R.message = std::to_string(worst.size()) + " elements beyond the tolerance after " + std::to_string(R.rounds) + " rounds";
+      break;
+    }
+    const int budget = opt.max_faces > 0 ? (opt.max_faces - nf) / 2 : nf;  // a split adds 2 faces
+    t = Clock::now();
+    const auto edges = edges_to_split(dec, R.lift.coarse_edge_feature, worst, budget);
+    const SplitResult sr = split_coarse_edges(dec, edges, opt.split);
+    R.seconds_split += seconds_since(t);
+    R.splits += sr.split;
+    R.refused += sr.refused;
+    if (sr.split == 0) {
+      R.message = std::to_string(worst.size()) + " elements beyond the tolerance: " +
+                  (budget <= 0 ? "the face budget is spent" : "no edge of theirs may split");
+      break;
+    }
+    ++R.rounds;
+    t = Clock::now();
+    R.lift = lift_coarse(fine, dec, lopt, &S);
+    R.seconds_lift += seconds_since(t);
+  }
+  if (!R.reached && best_deviation < R.deviation_after) {
+    R.message += "; kept round " + std::to_string(best_rounds) + " of " + std::to_string(R.rounds) + ", the closest";
+    dec = std::move(best->first);
+    R.lift = std::move(best->second);
+    R.deviation_after = best_deviation;
+  }
+  R.message = (R.reached ? "reached: " : "tolerance not reached: ") + R.message + " (" + std::to_string(R.faces_before) +
+              " -> " + std::to_string(dec.coarse.num_faces()) + " faces, " + std::to_string(R.splits) + " splits in " +
+              std::to_string(R.rounds) + " rounds)";
+  return R;
+}
+
+}  // namespace hocurve
