@@ -78,7 +78,6 @@ Run coarsen(const Mesh& fine, DecimateOptions dopt, int p) {
   if (const char* e = std::getenv("BENCH_LIFT_TOL")) {
     RefineOptions ro;
     ro.tolerance = std::atof(e);
-    if (const char* m = std::getenv("BENCH_LIFT_SPLITFOLD")) ro.split.max_normal_change_deg = std::atof(m);
     if (const char* m = std::getenv("BENCH_LIFT_MAXRATIO")) ro.max_faces = static_cast<int>(std::atof(m) * fine.num_faces());
     RefineResult rr = lift_and_refine(fine, r.dec, lift_options(dopt, p), ro);
     r.lift = std::move(rr.lift);

@@ -78,14 +78,15 @@ nlohmann::json options_from_query(const std::multimap<std::string, std::string>&
 nlohmann::json normalise_options(const nlohmann::json& raw) {
   if (!raw.is_object())
     throw ApiError(400, "invalid-options", "options must be a JSON object, got " + std::string(raw.type_name()));
-  static const std::set<std::string> known = {"mode",  "order", "nodes",         "format",       "binary",
-                                              "faces", "ratio", "max_deviation", "feature_angle", "long_edge_ratio"};
+  static const std::set<std::string> known = {"mode",          "order",     "nodes",     "format",
+                                              "binary",        "faces",     "ratio",     "max_deviation",
+                                              "tolerance",     "max_faces", "feature_angle", "long_edge_ratio"};
   Errors err;
   for (auto& [k, v] : raw.items())
     if (!known.count(k))
       err.add(k, "unknown option '" + k +
-                     "' (known: mode, order, nodes, format, binary, faces, ratio, max_deviation, feature_angle, "
-                     "long_edge_ratio)");
+                     "' (known: mode, order, nodes, format, binary, faces, ratio, max_deviation, tolerance, "
+                     "max_faces, feature_angle, long_edge_ratio)");
 
   nlohmann::json out = nlohmann::json::object();
   std::string mode = "curve";
@@ -126,8 +127,17 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
     }
     number("ratio", [](double x) { return x > 0 && x <= 1; }, "a number in (0, 1]");
     number("max_deviation", [](double x) { return x >= 0 && x <= 1; }, "a number in [0, 1] (0: no limit)");
+    number("tolerance", [](double x) { return x >= 0 && x <= 1; }, "a number in [0, 1] (0: no refinement)");
+    if (raw.contains("max_faces")) {
+      long long m = 0;
+      if (!parse_int(raw["max_faces"], m) || m < 4 || m > 100000000)
+        err.add("max_faces", "max_faces must be an integer from 4 to 1e8, got " + as_text(raw["max_faces"]));
+      else if (!raw.contains("tolerance"))
+        err.add("max_faces", "max_faces needs tolerance");
+      out["max_faces"] = m;
+    }
   } else {
-    for (const char* k : {"faces", "ratio", "max_deviation"})
+    for (const char* k : {"faces", "ratio", "max_deviation", "tolerance", "max_faces"})
       if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=coarsen only");
     // Equispaced by default: Gmsh's Lagrange elements (and the readers that follow them) put node k
     // at the k-th equispaced point, so Lobatto nodes read as equispaced distort the surface
@@ -166,6 +176,8 @@ std::vector<std::string> worker_argv(const std::string& program, const nlohmann:
     if (o.contains("faces")) a.insert(a.end(), {"--faces", std::to_string(o["faces"].get<long long>())});
     if (o.contains("ratio")) a.insert(a.end(), {"--ratio", number("ratio")});
     if (o.contains("max_deviation")) a.insert(a.end(), {"--max-deviation", number("max_deviation")});
+    if (o.contains("tolerance")) a.insert(a.end(), {"--tolerance", number("tolerance")});
+    if (o.contains("max_faces")) a.insert(a.end(), {"--max-faces", std::to_string(o["max_faces"].get<long long>())});
   } else {
     a.insert(a.end(), {"--nodes", o.value("nodes", "equispaced"), "--format", o.value("format", "msh41")});
     if (o.value("binary", false)) a.push_back("--binary");

@@ -226,6 +226,8 @@ def main(argv=None):
     s.add_argument("--faces", type=int)
     s.add_argument("--ratio", type=float)
     s.add_argument("--max-deviation", type=float, dest="max_deviation")
+    s.add_argument("--tolerance", type=float)
+    s.add_argument("--max-faces", type=int, dest="max_faces")
     s.add_argument("--feature-angle", type=float, dest="feature_angle")
     s.add_argument("--long-edge-ratio", type=float, dest="long_edge_ratio")
     s.add_argument("--idempotency-key")
@@ -251,7 +253,7 @@ def main(argv=None):
     try:
         if args.cmd == "submit":
             opts = {k: getattr(args, k) for k in ("mode", "order", "nodes", "format", "faces", "ratio", "max_deviation",
-                                                  "feature_angle", "long_edge_ratio")
+                                                  "tolerance", "max_faces", "feature_angle", "long_edge_ratio")
                     if getattr(args, k) is not None}
             if args.binary:
                 opts["binary"] = True

@@ -195,13 +195,35 @@ def main(argv):
         f, t, nd, reached, err = counts["0"]
         check(reached and f <= t and nd == 0 and err == "", "no limit: %d faces (target %d), no warning" % (f, t))
 
+    # --tolerance: the elements furthest from the input split until within it (or the faces run out).
+    o, st = os.path.join(work, "btol.msh"), os.path.join(work, "btol.json")
+    cap = int(0.05 * 6598)
+    r = subprocess.run([hoc, "coarsen", bunny, "-o", o, "--order", "4", "--ratio", "0.04", "--tolerance", "0.005",
+                        "--max-faces", str(cap), "--stats", st], capture_output=True, text=True, timeout=300)
+    check(r.returncode == 0, "bunny 4%%, --tolerance 0.005: exit 0 (%s)" % r.stderr.strip())
+    if r.returncode == 0:
+        s = json.load(open(st))
+        rf, d = s["refinement"], s["decimation"]
+        types, conns, _ = read_msh(o)
+        conn = np.asarray(conns[0], dtype=np.int64).reshape(-1, 15)
+        n_el = len(conn)
+        open_edges = sum(1 for k in edge_sets(conn, 4).values() if k != 2)
+        check(types == [23] and rf["splits"] > 0 and d["faces"] < n_el <= cap and n_el == s["lifting"]["faces"]
+              and rf["deviation_after_relative"] < rf["deviation_before_relative"]
+              and s["lifting"]["validity"]["invalid_after"] == 0 and open_edges == 0,
+              "--tolerance: %d -> %d elements (cap %d), %d splits, largest deviation %.3f%% -> %.3f%%, watertight, 0 invalid"
+              % (d["faces"], n_el, cap, rf["splits"], 100 * rf["deviation_before_relative"],
+                 100 * rf["deviation_after_relative"]))
+
     # Refusals: exit 2 (usage) and 3 (input), no output file left behind.
     bad = os.path.join(work, "bad.msh")
     for args, code, what in [(["--order", "4"], 2, "neither --faces nor --ratio"),
                              (["--order", "4", "--faces", "10", "--ratio", "0.1"], 2, "both --faces and --ratio"),
                              (["--order", "7", "--faces", "100"], 2, "order 7"),
                              (["--order", "1", "--faces", "100"], 2, "order 1"),
-                             (["--order", "4", "--faces", "100", "--max-deviation", "-0.1"], 2, "negative deviation")]:
+                             (["--order", "4", "--faces", "100", "--max-deviation", "-0.1"], 2, "negative deviation"),
+                             (["--order", "4", "--faces", "100", "--tolerance", "-0.1"], 2, "negative tolerance"),
+                             (["--order", "4", "--faces", "100", "--max-faces", "200"], 2, "--max-faces alone")]:
         r = subprocess.run([hoc, "coarsen", src, "-o", bad] + args, capture_output=True, text=True, timeout=60)
         check(r.returncode == code and not os.path.exists(bad), "%s: exit %d, no output" % (what, r.returncode))
     empty = os.path.join(work, "empty.obj")

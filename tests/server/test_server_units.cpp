@@ -81,6 +81,10 @@ TEST_CASE("options: every offending key is reported with a JSON pointer") {
   CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"ratio", 0}}), ApiError);
   CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"ratio", 0.1}, {"max_deviation", -1}}), ApiError);
   CHECK_THROWS_AS(normalise_options({{"max_deviation", 0.01}}), ApiError);  // coarsen-only key
+  CHECK_THROWS_AS(normalise_options({{"tolerance", 0.005}}), ApiError);      // coarsen-only key
+  CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"ratio", 0.1}, {"tolerance", -1}}), ApiError);
+  CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"ratio", 0.1}, {"max_faces", 100}}), ApiError);  // needs tolerance
+  CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"ratio", 0.1}, {"tolerance", 0.005}, {"max_faces", 2}}), ApiError);
   CHECK_THROWS_AS(normalise_options(json::array()), ApiError);
   CHECK_THROWS_AS(options_from_query({{"order", "3"}, {"order", "4"}}), ApiError);
 }
@@ -96,6 +100,11 @@ TEST_CASE("worker command line follows the CLI contract") {
   a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"ratio", 0.5}, {"max_deviation", 0.02}}), "i", "o", "s", 1);
   CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "4", "--ratio", "0.5",
                                       "--max-deviation", "0.02", "--stats", "s", "--progress"});
+  a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"ratio", 0.04}, {"tolerance", 0.005}, {"max_faces", "330"}}),
+                  "i", "o", "s", 1);
+  CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "4", "--ratio", "0.040000000000000001",
+                                      "--tolerance", "0.0050000000000000001", "--max-faces", "330", "--stats", "s",
+                                      "--progress"});
   // The feature threshold and the long-edge rule, in both modes; refused out of range.
   a = worker_argv("h", normalise_options({{"feature_angle", "40"}, {"long_edge_ratio", 0}}), "i", "o", "s", 1);
   CHECK(a == std::vector<std::string>{"h", "curve", "i", "-o", "o", "--order", "4", "--nodes", "equispaced", "--format",
