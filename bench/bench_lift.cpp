@@ -215,7 +215,9 @@ void real(const std::string& file, double ratio, int p) {
   if (!D.reached_target) std::printf("    %s\n", D.message.c_str());
   if (!r.refine.empty()) std::printf("    refine: %s\n", r.refine.c_str());
   if (std::getenv("BENCH_LIFT_ELEMENTS")) {
+    const double t0 = now();
     const std::vector<double> dev = element_deviation(L.mesh, fine);
+    std::printf("    element_deviation: %.3f s\n", now() - t0);
     std::printf("    element deviation max %.3f%%; elements above", 100 * *std::max_element(dev.begin(), dev.end()) / diag);
     for (double t : {0.3, 0.4, 0.5, 0.7})
       std::printf(" %.1f%%: %ld", t, std::count_if(dev.begin(), dev.end(), [&](double x) { return x > t * diag / 100; }));

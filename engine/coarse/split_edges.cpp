@@ -25,18 +25,19 @@ int local_index(const Mesh& m, int f, int v) {
   return -1;
 }
 
-/// Barycentrics on the half of a face -> barycentrics on the face: the half keeps the face's
-/// corners but corner `moved`, which is the midpoint of corners i and j.
-Eigen::Matrix3d half_to_face(int moved, int i, int j) {
+/// Barycentrics on the part of a face -> barycentrics on the face: the part keeps the face's
+/// corners but corner `moved`, which becomes the point t corner i + (1 - t) corner j.
+Eigen::Matrix3d part_to_face(int moved, int i, int j, double t) {
   Eigen::Matrix3d S = Eigen::Matrix3d::Identity();
   S.col(moved).setZero();
-  S(i, moved) = S(j, moved) = 0.5;
+  S(i, moved) = t;
+  S(j, moved) = 1 - t;
   return S;
 }
 
-/// Whether both halves of face f, with corner `replaced` (a or b) moved to m, keep their
-/// orientation and shape.
-bool halves_ok(const Mesh& C, int f, int a, int b, const Eigen::Vector3d& m, double cos_fold, double cos_sliver) {
+/// Whether both parts of face f (corner a, then corner b, moved to m) keep their orientation and
+/// shape.
+bool parts_ok(const Mesh& C, int f, int a, int b, const Eigen::Vector3d& m, double cos_fold, double cos_sliver) {
   const Eigen::Vector3d p[3] = {corner(C, f, 0), corner(C, f, 1), corner(C, f, 2)};
   const Eigen::Vector3d n = unit_normal(p[0], p[1], p[2]);
   // Half the face's smallest angle, as a cosine: cos(x/2) = sqrt((1 + cos x) / 2).
@@ -78,12 +79,21 @@ SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::vecto
     if (i1 == face_of.end() || i2 == face_of.end()) return false;
     const int faces[2] = {i1->second, i2->second};
     if (used[faces[0]] || used[faces[1]] || C.entity_of(faces[0]) != C.entity_of(faces[1])) return false;
-    // The midpoint of a b in the parametrization, on the dense surface.
-    Eigen::Vector3d xi = Eigen::Vector3d::Zero();
-    xi[local_index(C, faces[0], a)] = xi[local_index(C, faces[0], b)] = 0.5;
-    const Eigen::Vector3d m = coarse_to_fine(M, faces[0], xi).position;
-    for (int f : faces)
-      if (!halves_ok(C, f, a, b, m, cos_fold, cos_sliver)) return false;
+    // The midpoint of a b in the parametrization, on the dense surface; where its parts would
+    // fold (the dense surface dips between a and b), points nearer a or b.
+    double t = 0;
+    Eigen::Vector3d m;
+    bool ok = false;
+    for (double s : {0.5, 0.4, 0.6, 0.3, 0.7}) {
+      Eigen::Vector3d xi = Eigen::Vector3d::Zero();
+      xi[local_index(C, faces[0], a)] = s;
+      xi[local_index(C, faces[0], b)] = 1 - s;
+      m = coarse_to_fine(M, faces[0], xi).position;
+      t = s;
+      ok = parts_ok(C, faces[0], a, b, m, cos_fold, cos_sliver) && parts_ok(C, faces[1], a, b, m, cos_fold, cos_sliver);
+      if (ok) break;
+    }
+    if (!ok) return false;
     const int vm = C.num_vertices();
     C.V.conservativeResize(vm + 1, 3);
     C.V.row(vm) = m.transpose();
@@ -92,7 +102,7 @@ SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::vecto
     dec.coarse_vertex_pinned.push_back(0);
     for (int f : faces) {
       const int ia = local_index(C, f, a), ib = local_index(C, f, b);
-      // f keeps the half without b, the new face g the half without a.
+      // f keeps the part without b, the new face g the part without a.
       const int g = C.num_faces();
       C.F.conservativeResize(g + 1, 3);
       C.F.row(g) = C.F.row(f);
@@ -102,9 +112,9 @@ SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::vecto
         C.face_entity.conservativeResize(g + 1);
         C.face_entity[g] = C.face_entity[f];
       }
-      const Eigen::Matrix3d Sf = half_to_face(ib, ia, ib), Sg = half_to_face(ia, ia, ib);
+      const Eigen::Matrix3d Sf = part_to_face(ib, ia, ib, t), Sg = part_to_face(ia, ia, ib, t);
       const Eigen::Matrix3d Sf_inv = Sf.inverse(), Sg_inv = Sg.inverse();
-      // The fine vertices of f go to the half that holds them (f's list is still the one from
+      // The fine vertices of f go to the part that holds them (f's list is still the one from
       // before this call: no earlier split in it touched f).
       auto [vb, ve] = M.fine_vertices_in(f);
       for (const int* v = vb; v != ve; ++v) {

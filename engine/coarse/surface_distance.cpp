@@ -183,27 +183,27 @@ HausdorffResult hausdorff_distance(const Mesh& A, const Mesh& B, int n) {
   return H;
 }
 
-std::vector<double> element_deviation(const HighOrderMesh& hm, const Mesh& dense, int n) {
+std::vector<double> element_deviation(const HighOrderMesh& hm, const Mesh& dense, int n, int dense_n) {
   const Mesh T = tessellate(hm, n);
   const TriangleGrid gd = build_triangle_grid(dense), gt = build_triangle_grid(T);
-  const Eigen::MatrixXd Pt = sample_faces(T, 4), Pd = sample_faces(dense, 4);
-  const Eigen::Index per_tri = 15, per_el = static_cast<Eigen::Index>(n) * n;  // degree-4 lattice: 15 points
+  const Eigen::MatrixXd Pd = sample_faces(dense, dense_n);
+  const int per_el_points = (n + 1) * (n + 2) / 2, per_el_tris = n * n;
   std::vector<double> dev(hm.num_faces(), 0.0);
-  // Coarse -> dense: each element owns its tessellation's samples.
+  // Element -> dense: each element's lattice points (the tessellation's vertices).
   tbb::parallel_for(0, hm.num_faces(), [&](int f) {
     double mx = 0;
-    for (Eigen::Index i = f * per_el * per_tri; i < (f + 1) * per_el * per_tri; ++i)
-      mx = std::max(mx, grid_distance(gd, Pt.row(i).transpose()));
+    for (Eigen::Index i = static_cast<Eigen::Index>(f) * per_el_points; i < static_cast<Eigen::Index>(f + 1) * per_el_points; ++i)
+      mx = std::max(mx, grid_distance(gd, T.V.row(i).transpose()));
     dev[f] = mx;
   });
-  // Dense -> coarse: a dense sample counts for the element its closest point lies in.
+  // Dense -> elements: a dense sample counts for the element its closest point lies in.
   std::vector<double> d(Pd.rows());
   std::vector<int> owner(Pd.rows());
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, Pd.rows()), [&](const tbb::blocked_range<Eigen::Index>& r) {
     for (Eigen::Index i = r.begin(); i < r.end(); ++i) {
       int t = -1;
       d[i] = grid_distance(gt, Pd.row(i).transpose(), &t);
-      owner[i] = t < 0 ? -1 : static_cast<int>(t / per_el);
+      owner[i] = t < 0 ? -1 : t / per_el_tris;
     }
   });
   for (Eigen::Index i = 0; i < Pd.rows(); ++i)

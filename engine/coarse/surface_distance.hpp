@@ -48,9 +48,10 @@ struct HausdorffResult {
 HausdorffResult hausdorff_distance(const Mesh& A, const Mesh& B, int n = 4);
 
 /// Per element of the curved mesh hm, its share of the two-sided Hausdorff distance to the dense
-/// mesh: the largest distance from the element's points (tessellated n x n, sampled at the degree-4
-/// lattice) to the dense mesh, and from the dense samples (degree-4 lattice) whose closest point on
-/// hm lies in the element. The maximum over elements is hausdorff_distance(dense, tessellate(hm, n)).
-std::vector<double> element_deviation(const HighOrderMesh& hm, const Mesh& dense, int n = 8);
+/// mesh: the largest distance from the element's degree-n lattice points to the dense mesh, and
+/// from the dense faces' degree-dense_n lattice points whose closest point on hm (tessellated
+/// n x n) lies in the element. Coarser than hausdorff_distance(dense, tessellate(hm, 8), 4), whose
+/// samples are 15 per triangle on both sides, and about 5x faster.
+std::vector<double> element_deviation(const HighOrderMesh& hm, const Mesh& dense, int n = 16, int dense_n = 2);
 
 }  // namespace hocurve
