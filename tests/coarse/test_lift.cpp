@@ -304,6 +304,14 @@ TEST_CASE("spot 4% refined to 0.5%: the worst elements split, closer to the inpu
     worst = std::max(worst, (coarse_to_fine(D.map, D.map.vertex_coarse_face[v], D.map.vertex_coarse_bary.row(v).transpose())
                                  .position - fine.V.row(v).transpose()).norm());
   CHECK(worst < 1e-12 * R.lift.bbox_diagonal);
+  // Deterministic: one thread splits the same edges and places the same nodes.
+  {
+    tbb::global_control gc(tbb::global_control::max_allowed_parallelism, 1);
+    DecimateResult D2 = D0;
+    const RefineResult one = lift_and_refine(fine, D2, lopt, ropt);
+    CHECK(D2.coarse.F == D.coarse.F);
+    CHECK((all_nodes(one.lift.mesh) - all_nodes(R.lift.mesh)).cwiseAbs().maxCoeff() == 0.0);
+  }
   // Tolerance 0 is the plain lifting.
   DecimateResult D1 = D0;
   ropt.tolerance = 0;
