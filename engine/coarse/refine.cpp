@@ -7,6 +7,7 @@
 #include <chrono>
 #include <memory>
 #include <numeric>
+#include <set>
 
 namespace hocurve {
 
@@ -15,14 +16,21 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
+using EdgeSet = std::set<std::pair<int, int>>;  ///< edges by their vertices, smaller first
+
+EdgeSet edge_set(const Topology& T, const std::vector<char>& marked) {
+  EdgeSet out;
+  for (int e = 0; e < T.num_edges(); ++e)
+    if (marked[e]) out.insert(std::minmax(T.E(e, 0), T.E(e, 1)));
+  return out;
+}
+
 /// Per element in `worst` (worst first, at most budget of them), the edge to split: the terminal
 /// edge of its longest-edge propagation path (Rivara's LEPP: from the element across its longest
 /// edge until two neighbours share their longest edge), so that bisection does not make thinner
 /// triangles; the edge before it on the path when the terminal edge may not split. An edge may
-/// split when it lies between two faces of one entity and not on a feature curve (the lifting's
-/// feature_edge, per edge of build_topology(dec.coarse.F)).
-std::vector<std::vector<std::array<int, 2>>> edges_to_split(const DecimateResult& dec,
-                                                            const std::vector<char>& feature_edge,
+/// split when it lies between two faces of one entity and not on a feature curve.
+std::vector<std::vector<std::array<int, 2>>> edges_to_split(const DecimateResult& dec, const EdgeSet& features,
                                                             const std::vector<int>& worst, int budget) {
   const Mesh& C = dec.coarse;
   const Topology T = build_topology(C.F, C.num_vertices());
@@ -36,7 +44,8 @@ std::vector<std::vector<std::array<int, 2>>> edges_to_split(const DecimateResult
   std::vector<char> taken(T.num_edges(), 0);
   auto may_split = [&](int e) {
     const auto& ef = T.edge_faces[e];
-    return !taken[e] && ef.size() == 2 && C.entity_of(ef[0]) == C.entity_of(ef[1]) && !feature_edge[e];
+    return !taken[e] && ef.size() == 2 && C.entity_of(ef[0]) == C.entity_of(ef[1]) &&
+           !features.count(std::minmax(T.E(e, 0), T.E(e, 1)));
   };
   std::vector<std::vector<std::array<int, 2>>> out;
   for (int f : worst) {
@@ -100,14 +109,23 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
       R.message = std::to_string(worst.size()) + " elements beyond the tolerance after " + std::to_string(R.rounds) + " rounds";
       break;
     }
-    const int budget = opt.max_faces > 0 ? (opt.max_faces - nf) / 2 : nf;  // a split adds 2 faces
+    // Split passes until every element beyond the tolerance is split itself (a LEPP path splits
+    // its terminal edge first), before lifting again.
     t = Clock::now();
-    const auto edges = edges_to_split(dec, R.lift.coarse_edge_feature, worst, budget);
-    const SplitResult sr = split_coarse_edges(dec, edges, opt.split);
+    const EdgeSet features = edge_set(build_topology(dec.coarse.F, dec.coarse.num_vertices()), R.lift.coarse_edge_feature);
+    int budget = 0, split = 0;
+    for (int pass = 0; pass < 16 && !worst.empty(); ++pass) {
+      budget = opt.max_faces > 0 ? (opt.max_faces - dec.coarse.num_faces()) / 2 : nf;  // a split adds 2 faces
+      const SplitResult sr = split_coarse_edges(dec, edges_to_split(dec, features, worst, budget), opt.split);
+      split += sr.split;
+      R.refused += sr.refused;
+      if (sr.split == 0) break;
+      const std::set<int> done(sr.faces.begin(), sr.faces.end());
+      std::erase_if(worst, [&](int f) { return done.count(f) > 0; });
+    }
     R.seconds_split += seconds_since(t);
-    R.splits += sr.split;
-    R.refused += sr.refused;
-    if (sr.split == 0) {
+    R.splits += split;
+    if (split == 0) {
       R.message = std::to_string(worst.size()) + " elements beyond the tolerance: " +
                   (budget <= 0 ? "the face budget is spent" : "no edge of theirs may split");
       break;

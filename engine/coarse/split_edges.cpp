@@ -132,6 +132,7 @@ SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::vecto
       M.split_next[f] = g;
       used.push_back(1);
       used[f] = 1;
+      R.faces.push_back(f);
     }
     return true;
   };

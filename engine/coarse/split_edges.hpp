@@ -19,6 +19,7 @@ struct SplitOptions {
 
 struct SplitResult {
   int split = 0, refused = 0;  ///< groups that split one of their edges, and that split none
+  std::vector<int> faces;      ///< the faces split (each keeps its id for one of its parts)
 };
 
 /// Splits coarse edges of dec.coarse at their midpoints in the map's parametrization (or at 0.4,
