@@ -34,7 +34,7 @@ const std::vector<OptionSpec> kCoarsenOptions = {
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
     {"max-deviation", true, "refuse collapses moving a dense vertex > F x diagonal off the coarse faces (default 0.015; 0: off)"},
     {"tolerance", true, "then split edges where the curved mesh is further than F x diagonal from the input (default 0: off)"},
-    {"max-faces", true, "with --tolerance: never more coarse triangles than this (default: no limit)"},
+    {"max-faces", true, "with --tolerance: never more coarse triangles than this (default: the input's count)"},
     {"long-edge-ratio", true, "dense edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
     {"progress", false, "print progress as JSON lines on stdout"},
     {"help", false, "show this help", 'h'},

@@ -80,6 +80,7 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
     R.message = "no refinement (tolerance 0)";
     return R;
   }
+  const int max_faces = opt.max_faces > 0 ? opt.max_faces : fine.num_faces();
   std::unique_ptr<std::pair<DecimateResult, LiftResult>> best;  // the round with the smallest largest deviation
   double best_deviation = 0;
   int best_rounds = 0;
@@ -99,10 +100,14 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
       best_rounds = R.rounds;
       best = std::make_unique<std::pair<DecimateResult, LiftResult>>(dec, R.lift);
     }
-    const int nf = dec.coarse.num_faces();
     if (worst.empty()) {
       R.reached = true;
       R.message = "every element within the tolerance";
+      break;
+    }
+    if (R.rounds - best_rounds > opt.patience) {
+      R.message = std::to_string(worst.size()) + " elements beyond the tolerance, and " + std::to_string(opt.patience) +
+                  " rounds brought none closer";
       break;
     }
     if (R.rounds >= opt.max_rounds) {
@@ -115,7 +120,7 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
     const EdgeSet features = edge_set(build_topology(dec.coarse.F, dec.coarse.num_vertices()), R.lift.coarse_edge_feature);
     int budget = 0, split = 0;
     for (int pass = 0; pass < 16 && !worst.empty(); ++pass) {
-      budget = opt.max_faces > 0 ? (opt.max_faces - dec.coarse.num_faces()) / 2 : nf;  // a split adds 2 faces
+      budget = (max_faces - dec.coarse.num_faces()) / 2;  // a split adds 2 faces
       const SplitResult sr = split_coarse_edges(dec, edges_to_split(dec, features, worst, budget), opt.split);
       split += sr.split;
       R.refused += sr.refused;
