@@ -48,10 +48,13 @@ std::vector<char> coarse_feature_edges(const Mesh& coarse, const Topology& Tc, c
     if (coarse.entity_of(faces[0]) != coarse.entity_of(faces[1])) { feat[e] = 1; return; }
     const int a = Tc.E(e, 0), b = Tc.E(e, 1);
     // Both ends on a curve in the decimation too: a vertex that the decimation moved freely (its
-    // origin on a soft crease it dropped) is not on the dense curve.
-    if (vf.empty() || !dec.coarse_vertex_feature[a] || !dec.coarse_vertex_feature[b] ||
-        !vf[dec.coarse_vertex_origin[a]] || !vf[dec.coarse_vertex_origin[b]])
-      return;
+    // origin on a soft crease it dropped) is not on the dense curve. A split vertex (no origin)
+    // marked as a feature vertex was put on it.
+    auto on_dense_curve = [&](int v) {
+      const int o = dec.coarse_vertex_origin[v];
+      return dec.coarse_vertex_feature[v] && (o < 0 || vf[o]);
+    };
+    if (vf.empty() || !on_dense_curve(a) || !on_dense_curve(b)) return;
     const int f = faces[0];
     Eigen::Vector3d xi = Eigen::Vector3d::Zero();
     for (int j = 0; j < 3; ++j)

@@ -28,10 +28,10 @@ EdgeSet edge_set(const Topology& T, const std::vector<char>& marked) {
 /// Per element in `worst` (worst first, at most budget of them), the edge to split: the terminal
 /// edge of its longest-edge propagation path (Rivara's LEPP: from the element across its longest
 /// edge until two neighbours share their longest edge), so that bisection does not make thinner
-/// triangles; the edge before it on the path when the terminal edge may not split. An edge may
-/// split when it lies between two faces of one entity and not on a feature curve.
-std::vector<std::vector<std::array<int, 2>>> edges_to_split(const DecimateResult& dec, const EdgeSet& features,
-                                                            const std::vector<int>& worst, int budget) {
+/// triangles; the edge before it on the path when the terminal edge may not split (a boundary
+/// edge, or one taken by an element before).
+std::vector<std::vector<std::array<int, 2>>> edges_to_split(const DecimateResult& dec, const std::vector<int>& worst,
+                                                            int budget) {
   const Mesh& C = dec.coarse;
   const Topology T = build_topology(C.F, C.num_vertices());
   auto length = [&](int e) { return (C.V.row(T.E(e, 0)) - C.V.row(T.E(e, 1))).squaredNorm(); };
@@ -44,8 +44,7 @@ std::vector<std::vector<std::array<int, 2>>> edges_to_split(const DecimateResult
   std::vector<char> taken(T.num_edges(), 0);
   auto may_split = [&](int e) {
     const auto& ef = T.edge_faces[e];
-    return !taken[e] && ef.size() == 2 && C.entity_of(ef[0]) == C.entity_of(ef[1]) &&
-           !features.count(std::minmax(T.E(e, 0), T.E(e, 1)));
+    return !taken[e] && ef.size() == 2;
   };
   std::vector<std::vector<std::array<int, 2>>> out;
   for (int f : worst) {
@@ -105,11 +104,6 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
       R.message = "every element within the tolerance";
       break;
     }
-    if (R.rounds - best_rounds > opt.patience) {
-      R.message = std::to_string(worst.size()) + " elements beyond the tolerance, and " + std::to_string(opt.patience) +
-                  " rounds brought none closer";
-      break;
-    }
     if (R.rounds >= opt.max_rounds) {
       R.message = std::to_string(worst.size()) + " elements beyond the tolerance after " + std::to_string(R.rounds) + " rounds";
       break;
@@ -117,11 +111,19 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
     // Split passes until every element beyond the tolerance is split itself (a LEPP path splits
     // its terminal edge first), before lifting again.
     t = Clock::now();
-    const EdgeSet features = edge_set(build_topology(dec.coarse.F, dec.coarse.num_vertices()), R.lift.coarse_edge_feature);
+    EdgeSet features = edge_set(build_topology(dec.coarse.F, dec.coarse.num_vertices()), R.lift.coarse_edge_feature);
     int budget = 0, split = 0;
     for (int pass = 0; pass < 16 && !worst.empty(); ++pass) {
       budget = (max_faces - dec.coarse.num_faces()) / 2;  // a split adds 2 faces
-      const SplitResult sr = split_coarse_edges(dec, edges_to_split(dec, features, worst, budget), opt.split);
+      const SplitResult sr = split_coarse_edges(dec, edges_to_split(dec, worst, budget), opt.split);
+      // A split of a feature edge puts its vertex on the dense curve: a curve vertex, both halves
+      // feature edges.
+      for (const auto& [a, b, m] : sr.vertices)
+        if (features.erase(std::minmax(a, b))) {
+          dec.coarse_vertex_feature[m] = 1;
+          features.insert(std::minmax(a, m));
+          features.insert(std::minmax(m, b));
+        }
       split += sr.split;
       R.refused += sr.refused;
       if (sr.split == 0) break;

@@ -20,10 +20,6 @@ struct RefineOptions {
   double tolerance = 0.005;
   int max_faces = 0;   ///< never split beyond this many coarse faces (0: the input's face count)
   int max_rounds = 8;  ///< split-and-lift rounds
-  /// Stop after this many rounds in a row that did not bring the largest deviation below the best
-  /// so far. Why: where the input itself is coarse (Thingi10K's 202-triangle parts) no split gets
-  /// closer, and the faces grew 28x in 8 rounds.
-  int patience = 2;
   SplitOptions split;
 };
 

@@ -78,7 +78,7 @@ SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::vecto
     const auto i1 = face_of.find(a * nv0 + b), i2 = face_of.find(b * nv0 + a);
     if (i1 == face_of.end() || i2 == face_of.end()) return false;
     const int faces[2] = {i1->second, i2->second};
-    if (used[faces[0]] || used[faces[1]] || C.entity_of(faces[0]) != C.entity_of(faces[1])) return false;
+    if (used[faces[0]] || used[faces[1]]) return false;
     // The midpoint of a b in the parametrization, on the dense surface; where its parts would
     // fold (the dense surface dips between a and b), points nearer a or b.
     double t = 0;
@@ -134,6 +134,7 @@ SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::vecto
       used[f] = 1;
       R.faces.push_back(f);
     }
+    R.vertices.push_back({a, b, vm});
     return true;
   };
 
