@@ -30,8 +30,7 @@ EdgeSet edge_set(const Topology& T, const std::vector<char>& marked) {
 /// edge until two neighbours share their longest edge), so that bisection does not make thinner
 /// triangles; the edge before it on the path when the terminal edge may not split (a boundary
 /// edge, or one taken by an element before).
-std::vector<std::vector<std::array<int, 2>>> edges_to_split(const DecimateResult& dec, const std::vector<int>& worst,
-                                                            int budget) {
+std::vector<std::array<int, 2>> edges_to_split(const DecimateResult& dec, const std::vector<int>& worst, int budget) {
   const Mesh& C = dec.coarse;
   const Topology T = build_topology(C.F, C.num_vertices());
   auto length = [&](int e) { return (C.V.row(T.E(e, 0)) - C.V.row(T.E(e, 1))).squaredNorm(); };
@@ -46,7 +45,7 @@ std::vector<std::vector<std::array<int, 2>>> edges_to_split(const DecimateResult
     const auto& ef = T.edge_faces[e];
     return !taken[e] && ef.size() == 2;
   };
-  std::vector<std::vector<std::array<int, 2>>> out;
+  std::vector<std::array<int, 2>> out;
   for (int f : worst) {
     if (static_cast<int>(out.size()) >= budget) break;
     int e = longest(f), before = -1;
@@ -59,7 +58,7 @@ std::vector<std::vector<std::array<int, 2>>> edges_to_split(const DecimateResult
     if (!may_split(e)) e = before;
     if (e < 0 || !may_split(e)) continue;
     taken[e] = 1;
-    out.push_back({{T.E(e, 0), T.E(e, 1)}});
+    out.push_back({T.E(e, 0), T.E(e, 1)});
   }
   return out;
 }

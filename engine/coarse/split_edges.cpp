@@ -4,7 +4,6 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
-#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <unordered_map>
@@ -54,7 +53,7 @@ bool parts_ok(const Mesh& C, int f, int a, int b, const Eigen::Vector3d& m, doub
 
 }  // namespace
 
-SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::vector<std::array<int, 2>>>& groups,
+SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::array<int, 2>>& edges,
                                const SplitOptions& opt) {
   Mesh& C = dec.coarse;
   CoarseMap& M = dec.map;
@@ -138,10 +137,7 @@ SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::vecto
     return true;
   };
 
-  for (const auto& group : groups) {
-    const bool done = std::any_of(group.begin(), group.end(), [&](const std::array<int, 2>& e) { return try_split(e[0], e[1]); });
-    ++(done ? R.split : R.refused);
-  }
+  for (const auto& [a, b] : edges) ++(try_split(a, b) ? R.split : R.refused);
   M.coarse_V = C.V;
   M.coarse_F = C.F;
   index_fine_vertices(M);

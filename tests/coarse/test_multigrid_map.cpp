@@ -199,12 +199,12 @@ TEST_CASE("edge splits after the decimation keep the map a bijection, the mesh c
   DecimateResult R = decimate(fine, {});
   const int nf0 = R.coarse.num_faces(), nv0 = R.coarse.num_vertices();
   // Two rounds (the second splits halves made by the first): each round the longest edge of every
-  // 6th face whose faces are not taken yet, and one group whose first choice is not an edge.
+  // 6th face whose faces are not taken yet, and one pair that is not an edge.
   int split = 0;
   for (int round = 0; round < 2; ++round) {
     const Topology T = build_topology(R.coarse.F, R.coarse.num_vertices());
     std::vector<char> taken(R.coarse.num_faces(), 0);
-    std::vector<std::vector<std::array<int, 2>>> groups = {{{0, 0}}};
+    std::vector<std::array<int, 2>> edges = {{0, 0}};
     for (int f = round; f < R.coarse.num_faces(); f += 6) {
       int e = T.FE(f, 0);
       for (int j = 1; j < 3; ++j)
@@ -214,9 +214,9 @@ TEST_CASE("edge splits after the decimation keep the map a bijection, the mesh c
       const int g = T.edge_faces[e][0] == f ? T.edge_faces[e][1] : T.edge_faces[e][0];
       if (taken[f] || taken[g]) continue;
       taken[f] = taken[g] = 1;
-      groups.push_back({{{0, 0}}, {T.E(e, 0), T.E(e, 1)}});  // the first alternative is refused
+      edges.push_back({T.E(e, 0), T.E(e, 1)});
     }
-    const SplitResult S = split_coarse_edges(R, groups);
+    const SplitResult S = split_coarse_edges(R, edges);
     CHECK(S.refused >= 1);
     split += S.split;
   }
