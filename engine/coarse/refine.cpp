@@ -79,6 +79,9 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
     return R;
   }
   const int max_faces = opt.max_faces > 0 ? opt.max_faces : fine.num_faces();
+  // The rounds lift again without reporting the lifting's stages (progress would run backwards).
+  LiftOptions quiet = lopt;
+  quiet.progress = nullptr;
   std::unique_ptr<std::pair<DecimateResult, LiftResult>> best;  // the round with the smallest largest deviation
   double best_deviation = 0;
   int best_rounds = 0;
@@ -137,8 +140,9 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
       break;
     }
     ++R.rounds;
+    if (lopt.progress) lopt.progress("refine round " + std::to_string(R.rounds), 1.0);
     t = Clock::now();
-    R.lift = lift_coarse(fine, dec, lopt, &S);
+    R.lift = lift_coarse(fine, dec, quiet, &S);
     R.seconds_lift += seconds_since(t);
   }
   if (!R.reached && best_deviation < R.deviation_after) {

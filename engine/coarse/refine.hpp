@@ -1,6 +1,6 @@
 // Refining a lifted coarse mesh where it strays from the dense input: the elements further from
-// it than a tolerance split their longest edge (split_coarse_edges), and the mesh is lifted
-// again, until every element is within the tolerance or a face budget is spent.
+// it than a tolerance are split by longest-edge bisection (split_coarse_edges), and the mesh is
+// lifted again, until every element is within the tolerance or a face budget is spent.
 //
 // Why: the decimation sizes coarse triangles for a linear surface (quadric error), but a curved
 // element's error is its interpolation error over the element: a few large elements on strongly
@@ -34,9 +34,11 @@ struct RefineResult {
 };
 
 /// Lifts dec's coarse mesh (lift_coarse), then refines it: while some element deviates more than
-/// the tolerance, the worst ones split their longest edge that is inside a smooth region (not
-/// joining two feature vertices, between two faces of one entity) and the mesh is lifted again.
-/// dec (coarse mesh and map) is updated in place. Feature edges are never split.
+/// the tolerance, every such element is split through the terminal edge of its longest-edge path
+/// (split_coarse_edges; an edge on a feature curve too: its new vertex lands on the dense curve),
+/// and the mesh is lifted again; of the rounds, the one closest to the input is kept. dec (coarse
+/// mesh and map) is updated in place. lopt.progress sees the first lifting's stages,
+/// then ("refine round k", 1.0) before each round.
 RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOptions& lopt,
                              const RefineOptions& opt = {});
 

@@ -199,9 +199,13 @@ def main(argv):
     o, st = os.path.join(work, "btol.msh"), os.path.join(work, "btol.json")
     cap = int(0.05 * 6598)
     r = subprocess.run([hoc, "coarsen", bunny, "-o", o, "--order", "4", "--ratio", "0.04", "--tolerance", "0.005",
-                        "--max-faces", str(cap), "--stats", st], capture_output=True, text=True, timeout=300)
+                        "--max-faces", str(cap), "--stats", st, "--progress"], capture_output=True, text=True, timeout=300)
     check(r.returncode == 0, "bunny 4%%, --tolerance 0.005: exit 0 (%s)" % r.stderr.strip())
     if r.returncode == 0:
+        fr = [json.loads(l)["fraction"] for l in r.stdout.splitlines() if l.startswith("{")]
+        rounds = [l for l in r.stdout.splitlines() if "refine round" in l]
+        check(len(rounds) > 0 and all(a <= b for a, b in zip(fr, fr[1:])) and fr[-1] == 1,
+              "--tolerance --progress: %d refine rounds reported, fractions non-decreasing to 1" % len(rounds))
         s = json.load(open(st))
         rf, d = s["refinement"], s["decimation"]
         types, conns, _ = read_msh(o)
