@@ -49,7 +49,8 @@ const char* kCoarsenUsage =
     "Decimates a linear triangle surface mesh to N triangles (or R x its count), keeping feature\n"
     "curves, and curves the coarse triangles to order P so that they stay on the dense surface.\n"
     "With --tolerance, elements further than F x the bounding-box diagonal from the input (both\n"
-    "ways) then split their longest edges and the mesh is curved again, while faces remain.\n";
+    "ways) are then split (longest-edge bisection on the dense surface) and the mesh is curved\n"
+    "again, up to --max-faces; the round closest to the input is kept.\n";
 
 nlohmann::json histogram(const std::vector<long long>& h) {
   nlohmann::json j = nlohmann::json::array();
