@@ -3,7 +3,8 @@
 #include "server/problem.hpp"
 
 #include <cmath>
-#include <set>
+#include <algorithm>
+#include <vector>
 
 namespace hocurve::server {
 namespace {
@@ -78,15 +79,16 @@ nlohmann::json options_from_query(const std::multimap<std::string, std::string>&
 nlohmann::json normalise_options(const nlohmann::json& raw) {
   if (!raw.is_object())
     throw ApiError(400, "invalid-options", "options must be a JSON object, got " + std::string(raw.type_name()));
-  static const std::set<std::string> known = {"mode",          "order",     "nodes",     "format",
-                                              "binary",        "faces",     "ratio",     "max_deviation",
-                                              "tolerance",     "max_faces", "feature_angle", "long_edge_ratio"};
+  static const std::vector<std::string> known = {"mode",          "order",     "nodes",         "format",
+                                                 "binary",        "faces",     "ratio",         "max_deviation",
+                                                 "tolerance",     "max_faces", "feature_angle", "long_edge_ratio"};
   Errors err;
   for (auto& [k, v] : raw.items())
-    if (!known.count(k))
-      err.add(k, "unknown option '" + k +
-                     "' (known: mode, order, nodes, format, binary, faces, ratio, max_deviation, tolerance, "
-                     "max_faces, feature_angle, long_edge_ratio)");
+    if (std::find(known.begin(), known.end(), k) == known.end()) {
+      std::string list;
+      for (const auto& name : known) list += (list.empty() ? "" : ", ") + name;
+      err.add(k, "unknown option '" + k + "' (known: " + list + ")");
+    }
 
   nlohmann::json out = nlohmann::json::object();
   std::string mode = "curve";
@@ -110,6 +112,14 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
     if (!parse_double(raw[key], x) || !ok(x)) err.add(key, std::string(key) + " must be " + what + ", got " + as_text(raw[key]));
     out[key] = x;
   };
+  // An optional face count `key` (4 .. 1e8).
+  const auto face_count = [&](const char* key) {
+    if (!raw.contains(key)) return;
+    long long n = 0;
+    if (!parse_int(raw[key], n) || n < 4 || n > 100000000)
+      err.add(key, std::string(key) + " must be an integer from 4 to 1e8, got " + as_text(raw[key]));
+    out[key] = n;
+  };
   // Both modes: the feature threshold and the long-edge rule of the dense fits.
   number("feature_angle", [](double x) { return x >= 0 && x <= 180; }, "a number of degrees in [0, 180]");
   number("long_edge_ratio", [](double x) { return x >= 0 && x <= 1e9; }, "a number >= 0 (0: off)");
@@ -119,23 +129,12 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
       if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=curve only");
     bool has_faces = raw.contains("faces"), has_ratio = raw.contains("ratio");
     if (has_faces == has_ratio) err.add(has_faces ? "ratio" : "faces", "mode=coarsen needs exactly one of faces or ratio");
-    if (has_faces) {
-      long long faces = 0;
-      if (!parse_int(raw["faces"], faces) || faces < 4 || faces > 100000000)
-        err.add("faces", "faces must be an integer from 4 to 1e8, got " + as_text(raw["faces"]));
-      out["faces"] = faces;
-    }
+    face_count("faces");
     number("ratio", [](double x) { return x > 0 && x <= 1; }, "a number in (0, 1]");
     number("max_deviation", [](double x) { return x >= 0 && x <= 1; }, "a number in [0, 1] (0: no limit)");
     number("tolerance", [](double x) { return x >= 0 && x <= 1; }, "a number in [0, 1] (0: no refinement)");
-    if (raw.contains("max_faces")) {
-      long long m = 0;
-      if (!parse_int(raw["max_faces"], m) || m < 4 || m > 100000000)
-        err.add("max_faces", "max_faces must be an integer from 4 to 1e8, got " + as_text(raw["max_faces"]));
-      else if (!raw.contains("tolerance"))
-        err.add("max_faces", "max_faces needs tolerance");
-      out["max_faces"] = m;
-    }
+    face_count("max_faces");
+    if (raw.contains("max_faces") && !raw.contains("tolerance")) err.add("max_faces", "max_faces needs tolerance");
   } else {
     for (const char* k : {"faces", "ratio", "max_deviation", "tolerance", "max_faces"})
       if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=coarsen only");

@@ -82,7 +82,8 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
   // The rounds lift again without reporting the lifting's stages (progress would run backwards).
   LiftOptions quiet = lopt;
   quiet.progress = nullptr;
-  std::unique_ptr<std::pair<DecimateResult, LiftResult>> best;  // the round with the smallest largest deviation
+  // The round with the smallest largest deviation: copied before its splits, restored at the end.
+  std::unique_ptr<std::pair<DecimateResult, LiftResult>> best;
   double best_deviation = 0;
   int best_rounds = 0;
   for (;;) {
@@ -99,7 +100,7 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
     if (R.rounds == 0 || R.deviation_after < best_deviation) {
       best_deviation = R.deviation_after;
       best_rounds = R.rounds;
-      best = std::make_unique<std::pair<DecimateResult, LiftResult>>(dec, R.lift);
+      best.reset();
     }
     if (worst.empty()) {
       R.reached = true;
@@ -110,6 +111,7 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
       R.message = std::to_string(worst.size()) + " elements beyond the tolerance after " + std::to_string(R.rounds) + " rounds";
       break;
     }
+    if (best_rounds == R.rounds) best = std::make_unique<std::pair<DecimateResult, LiftResult>>(dec, R.lift);
     // Split passes until every element beyond the tolerance is split itself (a LEPP path splits
     // its terminal edge first), before lifting again.
     t = Clock::now();
@@ -145,7 +147,7 @@ RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOp
     R.lift = lift_coarse(fine, dec, quiet, &S);
     R.seconds_lift += seconds_since(t);
   }
-  if (!R.reached && best_deviation < R.deviation_after) {
+  if (best && best_deviation < R.deviation_after) {
     R.message += "; kept round " + std::to_string(best_rounds) + " of " + std::to_string(R.rounds) + ", the closest";
     dec = std::move(best->first);
     R.lift = std::move(best->second);
