@@ -220,12 +220,7 @@ struct Decimator {
     };
     const bool fa = vfeat[a], fb = vfeat[b], ca = vcorner[a], cb = vcorner[b];
     const bool ef = feat.count(edge_key(a, b)) > 0;
-    if (ef) {
-      if (faces_on_edge(a, b) < 2) {
-        P.reason = Reason::boundary;
-        snapped(a, b);
-        return P;
-      }
+    if (ef) {  // along a feature curve or the open boundary: the survivor stays on it
       if (ca && cb) P.reason = Reason::feature;
       if (ca) snapped(a, b);
       else if (cb) snapped(b, a);
@@ -272,25 +267,28 @@ Reason Decimator::check_and_collapse(const Plan& P, bool may_defer, double& devi
   for (int f : vf[s])
     for (int x : F[f])
       if (x == r) edge_faces.push_back(f);
-  if (edge_faces.size() != 2) return Reason::boundary;
+  // An edge of the open boundary has one face (plan() lets only boundary edges of the boundary
+  // curve through: both ends are boundary vertices).
+  const int ne = static_cast<int>(edge_faces.size());
+  if (ne != 2 && !(ne == 1 && vbnd[s] && vbnd[r])) return Reason::boundary;
   for (int f : edge_faces)
     for (int x : F[f])
       if (x != s && x != r) wings.push_back(x);
-  if (wings[0] == wings[1]) return Reason::link;
-  // Link condition: the only common neighbours are the two wing vertices.
+  if (ne == 2 && wings[0] == wings[1]) return Reason::link;
+  // Link condition: the only common neighbours are the wing vertices.
   std::vector<int> ns, nr;
   neighbors(s, ns);
   neighbors(r, nr);
   int common = 0;
   for (int x : ns)
     if (std::find(nr.begin(), nr.end(), x) != nr.end()) ++common;
-  if (common != 2) return Reason::link;
+  if (common != ne) return Reason::link;
   // Valence and size.
-  const int new_deg = static_cast<int>(vf[s].size() + vf[r].size()) - 4;
+  const int new_deg = static_cast<int>(vf[s].size() + vf[r].size()) - 2 * ne;
   if (new_deg < (vbnd[s] ? 1 : 3)) return Reason::valence;
   for (int c : wings)
     if (static_cast<int>(vf[c].size()) - 1 < (vbnd[c] ? 1 : 3)) return Reason::valence;
-  if (faces_alive - 2 < 4 || pf.size() > 120 || ns.size() + nr.size() > 240) return Reason::valence;
+  if (faces_alive - ne < 4 || pf.size() > 120 || ns.size() + nr.size() > 240) return Reason::valence;
   // Feature curves must not shrink into a two-edge loop.
   if (feat.count(edge_key(s, r)))
     for (int c : wings)

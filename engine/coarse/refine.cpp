@@ -43,7 +43,7 @@ std::vector<std::array<int, 2>> edges_to_split(const DecimateResult& dec, const 
   std::vector<char> taken(T.num_edges(), 0);
   auto may_split = [&](int e) {
     const auto& ef = T.edge_faces[e];
-    return !taken[e] && ef.size() == 2;
+    return !taken[e] && (ef.size() == 2 || ef.size() == 1);  // the open boundary splits along itself
   };
   std::vector<std::array<int, 2>> out;
   for (int f : worst) {

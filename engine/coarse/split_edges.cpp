@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <unordered_map>
@@ -74,10 +75,13 @@ SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::array
 
   auto try_split = [&](int a, int b) {
     if (a == b || a < 0 || b < 0 || a >= nv0 || b >= nv0) return false;
-    const auto i1 = face_of.find(a * nv0 + b), i2 = face_of.find(b * nv0 + a);
-    if (i1 == face_of.end() || i2 == face_of.end()) return false;
-    const int faces[2] = {i1->second, i2->second};
-    if (used[faces[0]] || used[faces[1]]) return false;
+    // The faces on either side: one on the open boundary.
+    std::vector<int> faces;
+    for (const long long key : {a * nv0 + b, b * nv0 + a})
+      if (const auto it = face_of.find(key); it != face_of.end()) faces.push_back(it->second);
+    if (faces.empty()) return false;
+    for (int f : faces)
+      if (used[f]) return false;
     // The midpoint of a b in the parametrization, on the dense surface; where its parts would
     // fold (the dense surface dips between a and b), points nearer a or b.
     double t = 0;
@@ -89,7 +93,7 @@ SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::array
       xi[local_index(C, faces[0], b)] = 1 - s;
       m = coarse_to_fine(M, faces[0], xi).position;
       t = s;
-      ok = parts_ok(C, faces[0], a, b, m, cos_fold, cos_sliver) && parts_ok(C, faces[1], a, b, m, cos_fold, cos_sliver);
+      ok = std::all_of(faces.begin(), faces.end(), [&](int f) { return parts_ok(C, f, a, b, m, cos_fold, cos_sliver); });
       if (ok) break;
     }
     if (!ok) return false;

@@ -25,13 +25,14 @@ struct SplitResult {
 
 /// Splits coarse edges (a, b) of dec.coarse at their midpoints in the map's parametrization (or at
 /// 0.4, 0.6, 0.3, 0.7 of them when the midpoint's parts would fold): the new vertex is the point of
-/// the dense surface that the map sends that point to, both faces of the edge become two, and every
-/// fine vertex of those faces moves to the part that holds it, so the map stays a bijection. The
-/// new vertices continue no fine vertex (coarse_vertex_origin -1) and are not feature vertices
-/// until the caller marks them (on an edge along a dense feature curve or entity border, the map
-/// puts them on that curve). An edge may split when it is interior, when neither face was split
-/// in this call, and when no part would fold (turn its normal more than max_normal_change_deg) or
-/// be thinner than both min_angle_deg and half its face's smallest angle. Needs dec.map.
+/// the dense surface that the map sends that point to, each face of the edge (two, or one on the
+/// open boundary) becomes two, and every fine vertex of those faces moves to the part that holds
+/// it, so the map stays a bijection. The new vertices continue no fine vertex (coarse_vertex_origin
+/// -1) and are not feature vertices until the caller marks them (on an edge along a dense feature
+/// curve, entity border or the open boundary, the map puts them on that curve). An edge may split
+/// when neither face was split in this call, and when no part would fold (turn its normal more
+/// than max_normal_change_deg) or be thinner than both min_angle_deg and half its face's smallest
+/// angle. Needs dec.map.
 SplitResult split_coarse_edges(DecimateResult& dec, const std::vector<std::array<int, 2>>& edges,
                                const SplitOptions& opt = {});
 

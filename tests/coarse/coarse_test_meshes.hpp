@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <numbers>
 #include <vector>
@@ -104,6 +105,30 @@ inline Mesh cube(int n) {
     M.face_entity[i] = ent[i];
   }
   return M;
+}
+
+/// The faces of m whose centroid passes keep, with their vertices renumbered in first-use order
+/// (an open surface cut out of a closed one).
+inline Mesh keep_faces(const Mesh& m, const std::function<bool(const Eigen::Vector3d&)>& keep) {
+  std::vector<int> faces, vmap(m.num_vertices(), -1);
+  for (int f = 0; f < m.num_faces(); ++f) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int j = 0; j < 3; ++j) c += m.V.row(m.F(f, j)).transpose() / 3;
+    if (keep(c)) faces.push_back(f);
+  }
+  Mesh out;
+  out.F.resize(static_cast<int>(faces.size()), 3);
+  int nv = 0;
+  for (size_t i = 0; i < faces.size(); ++i)
+    for (int j = 0; j < 3; ++j) {
+      int& v = vmap[m.F(faces[i], j)];
+      if (v < 0) v = nv++;
+      out.F(static_cast<int>(i), j) = v;
+    }
+  out.V.resize(nv, 3);
+  for (int v = 0; v < m.num_vertices(); ++v)
+    if (vmap[v] >= 0) out.V.row(vmap[v]) = m.V.row(v);
+  return out;
 }
 
 }  // namespace hocurve::coarse_test

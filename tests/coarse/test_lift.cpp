@@ -116,6 +116,30 @@ TEST_CASE("torus 15k -> 640 P4: closer to the torus than the dense input") {
   check_case(c, 640);
 }
 
+TEST_CASE("open hemisphere -> 3% P4: the boundary coarsens along the equator, closer to the sphere than the input") {
+  const Mesh hemi = coarse_test::keep_faces(uv_sphere(60, 100), [](const Eigen::Vector3d& c) { return c.z() > 0; });
+  const int target = static_cast<int>(std::lround(0.03 * hemi.num_faces()));
+  const Case c = run(hemi, target, 4, sphere_distance);
+  check_case(c, target);
+  // The equator: 100 dense edges, far fewer coarse ones, whose nodes stay on the circle.
+  const HighOrderMesh& hm = c.lift.mesh;
+  const Topology T = build_topology(hm.F, static_cast<int>(hm.V.rows()));
+  int boundary = 0;
+  double off = 0;
+  for (int e = 0; e < T.num_edges(); ++e) {
+    if (T.edge_faces[e].size() != 1) continue;
+    ++boundary;
+    for (int k = 0; k < hm.nodes_per_edge(); ++k) {
+      const Eigen::Vector3d x = hm.edge_nodes.row(e * hm.nodes_per_edge() + k);
+      off = std::max({off, std::abs(x.z()), std::abs(x.head<2>().norm() - 1)});
+    }
+  }
+  MESSAGE("equator: 100 dense edges -> " << boundary << " coarse edges, their nodes off the circle by " << off);
+  CHECK(boundary <= 25);
+  CHECK(boundary >= 6);
+  CHECK(off <= c.dense);
+}
+
 TEST_CASE("orders 2 and 6 on the sphere: valid, conforming, better than straight") {
   for (int p : {2, 6}) {
     const Case c = run(icosphere(4), 320, p, sphere_distance);
