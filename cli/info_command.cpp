@@ -59,7 +59,7 @@ int run_info(int argc, char** argv) {
   j["features"] = {{"sharp_edges", feat.sharp_edges},     {"boundary_edges", feat.boundary_edges},
                    {"nonmanifold_edges", feat.nonmanifold_edges},
                    {"entity_border_edges", feat.entity_border_edges},
-                   {"curves", feat.curves.size()},        {"corners", feat.corners}};
+                   {"curves", feat.curves.size()},        {"corners", feat.corners}, {"cone_points", feat.cone_points}};
   if (a.has("json")) {
     std::cout << j.dump(2) << "\n";
     return 0;
@@ -76,7 +76,7 @@ int run_info(int argc, char** argv) {
             << (uni.uniform ? "uniform" : "non-uniform: " + uni.reason) << "\n"
             << "  features: " << feat.sharp_edges << " sharp, " << feat.boundary_edges << " boundary, "
             << feat.nonmanifold_edges << " non-manifold, " << feat.entity_border_edges
-            << " entity-border edges; " << feat.curves.size() << " curves, " << feat.corners << " corners\n"
+            << " entity-border edges; " << feat.curves.size() << " curves, " << feat.corners << " corners, " << feat.cone_points << " cone points\n"
             << "  topology: " << in.validation.boundary_edges << " boundary edges, "
             << in.validation.nonmanifold_edges << " non-manifold edges, " << in.validation.nonmanifold_vertices
             << " non-manifold vertices, " << in.validation.flipped_faces << " faces re-oriented, "

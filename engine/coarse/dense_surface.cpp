@@ -19,7 +19,7 @@ DenseSurface build_dense_surface(const Mesh& fine, const DenseSurfaceOptions& op
   S.mesh = &fine;
   S.T = build_topology(fine.F, fine.num_vertices());
   S.features = detect_features(fine, S.T, opt.features);
-  S.W = build_wedges(fine, S.T, S.features.edge_feature);
+  S.W = build_wedges(fine, S.T, S.features.edge_feature, S.features.vertex_cone);
   SupportPoints support;
   if (opt.support && !check_uniformity(fine, S.T).uniform) {
     support = sample_support(fine);

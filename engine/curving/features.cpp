@@ -269,6 +269,9 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
     R.feature_edges -= pruned;
     chain_all();
   }
+  R.vertex_cone = opt.cone_points ? cone_points(mesh, T, R.vertex_feature, opt.cone)
+                                  : std::vector<char>(nv, 0);
+  R.cone_points = static_cast<int>(std::count(R.vertex_cone.begin(), R.vertex_cone.end(), 1));
   return R;
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 #include "engine/core/mesh.hpp"
 #include "engine/core/topology.hpp"
+#include "engine/curving/cone_points.hpp"
 
 #include <vector>
 
@@ -39,17 +40,25 @@ struct FeatureOptions {
   /// Open curves made only of sharp edges, with a free end (feature valence 1) and fewer than
   /// this many edges, are dropped as noise (scanned meshes have many); 0 keeps every curve.
   int min_dangling_edges = 0;
+  /// Mark cone points (cone_points.hpp): the fits treat them as walls, like feature curves.
+  bool cone_points = true;
+  ConeOptions cone;
 };
 
 struct Features {
   std::vector<char> edge_feature;     ///< per Topology edge: 1 if a feature edge
   std::vector<char> vertex_feature;   ///< per vertex: 1 if on a feature edge
   std::vector<char> vertex_corner;    ///< per vertex: 1 if a corner (curves meet, end or turn sharply): stays put
+  /// Per vertex: 1 if a cone point (the apex of a cone, off the curves): stays put, and no fit
+  /// reaches across it (a smooth fit rounds the apex off: P4 up to 7x further from a cone than
+  /// its linear input).
+  std::vector<char> vertex_cone;
   /// Feature curves as vertex chains between corners (or closed loops: front()==back()).
   std::vector<std::vector<int>> curves;
   std::vector<int> edge_curve;        ///< per edge: curve index, -1 if not a feature
   long long sharp_edges = 0, boundary_edges = 0, nonmanifold_edges = 0, entity_border_edges = 0;
   int corners = 0;
+  int cone_points = 0;
   long long feature_edges = 0;        ///< edges with edge_feature == 1 (an edge may be of several kinds above)
   int closed_curves = 0;              ///< curves that are closed loops without corners
   long long pruned_edges = 0;         ///< sharp edges dropped by min_dangling_edges (still counted in sharp_edges)

@@ -107,7 +107,7 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     }
 
     progress("fits", 0.25);
-    const Wedges W = build_wedges(mesh, T, R.features.edge_feature);
+    const Wedges W = build_wedges(mesh, T, R.features.edge_feature, R.features.vertex_cone);
     R.wedges = W.num_wedges();
     if (p >= 2) {
       const int d = fit_degree(p, opt.fit);

@@ -7,10 +7,12 @@
 
 namespace hocurve {
 
-Wedges build_wedges(const Mesh& mesh, const Topology& T, const std::vector<char>& edge_feature) {
+Wedges build_wedges(const Mesh& mesh, const Topology& T, const std::vector<char>& edge_feature,
+                    const std::vector<char>& cone_vertex) {
   const int nv = mesh.num_vertices();
   const int nf = mesh.num_faces();
   Wedges W;
+  if (std::find(cone_vertex.begin(), cone_vertex.end(), 1) != cone_vertex.end()) W.cone = cone_vertex;
   W.corner_wedge = Eigen::MatrixXi::Constant(nf, 3, -1);
   W.vertex_wedge_start.assign(nv + 1, 0);
   W.wedge_start.push_back(0);
@@ -122,6 +124,7 @@ Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w
            static_cast<int>(S.vertices.size()) < opt.max_points))) {
     new_faces.clear();
     for (int u : frontier) {
+      if (W.is_cone(u)) continue;  // a wall, as a feature curve is
       for (int uw = W.vertex_wedge_start[u]; uw < W.vertex_wedge_start[u + 1]; ++uw) {
         const int* b = W.wedge_faces.data() + W.wedge_start[uw];
         const int* e = W.wedge_faces.data() + W.wedge_start[uw + 1];

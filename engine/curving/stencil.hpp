@@ -24,6 +24,8 @@ struct Wedges {
   std::vector<int> wedge_start, wedge_faces;
   Eigen::MatrixXi corner_wedge;
   std::vector<int> vertex_wedge_start;
+  std::vector<char> cone;  ///< per vertex: a cone point (Features::vertex_cone); empty: none
+  bool is_cone(int v) const { return !cone.empty() && cone[v]; }
   int num_wedges() const { return static_cast<int>(wedge_vertex.size()); }
   int vertex_wedges(int v) const { return vertex_wedge_start[v + 1] - vertex_wedge_start[v]; }
   /// Wedge w's vertex has other wedges too: it lies on a feature and w sees one side of it.
@@ -32,7 +34,9 @@ struct Wedges {
 
 /// Splits the faces around every vertex into wedges separated by feature edges.
 /// edge_feature: per Topology edge, 1 if it is a feature (may be empty: no features).
-Wedges build_wedges(const Mesh& mesh, const Topology& T, const std::vector<char>& edge_feature);
+/// cone_vertex: per vertex, 1 for a cone point (may be empty): stencils do not grow across it.
+Wedges build_wedges(const Mesh& mesh, const Topology& T, const std::vector<char>& edge_feature,
+                    const std::vector<char>& cone_vertex = {});
 
 struct StencilOptions {
   int min_rings = 2;        ///< rings always taken
@@ -49,7 +53,8 @@ struct Stencil {
 };
 
 /// Grows rings from wedge w: each ring adds, around every vertex of the region, the faces of
-/// that vertex's wedges already touched by the region, so the region never crosses a feature.
+/// that vertex's wedges already touched by the region, so the region never crosses a feature;
+/// nor a cone point (its faces join the region only from the cone's own wedge).
 Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
                      const StencilOptions& opt);
 

@@ -184,6 +184,33 @@ Mesh capped_cylinder_cad(int n_around, double radius, double height) {
   return capped_cylinder(n_around, 1, radius, height);
 }
 
+Mesh cone_mesh(int n_rings, int n_around, double radius, double height) {
+  require(n_rings >= 1 && n_around >= 3, "cone_mesh: needs n_rings >= 1 and n_around >= 3");
+  require(radius > 0 && height > 0, "cone_mesh: radius and height must be positive");
+  std::vector<Vec3> V{{0, 0, height}};
+  for (int k = 1; k <= n_rings; ++k) {
+    const double t = static_cast<double>(k) / n_rings;
+    for (int j = 0; j < n_around; ++j) {
+      const double ph = 2 * std::numbers::pi * j / n_around;
+      V.push_back({t * radius * std::cos(ph), t * radius * std::sin(ph), height * (1 - t)});
+    }
+  }
+  const int centre = static_cast<int>(V.size());
+  V.push_back({0, 0, 0});
+  auto id = [&](int k, int j) { return 1 + (k - 1) * n_around + (j % n_around); };
+  std::vector<std::array<int, 3>> F;
+  std::vector<int> ent;
+  for (int j = 0; j < n_around; ++j) F.push_back({0, id(1, j), id(1, j + 1)}), ent.push_back(1);
+  for (int k = 1; k < n_rings; ++k)
+    for (int j = 0; j < n_around; ++j) {
+      F.push_back({id(k, j), id(k + 1, j), id(k + 1, j + 1)});
+      F.push_back({id(k, j), id(k + 1, j + 1), id(k, j + 1)});
+      ent.push_back(1), ent.push_back(1);
+    }
+  for (int j = 0; j < n_around; ++j) F.push_back({centre, id(n_rings, j + 1), id(n_rings, j)}), ent.push_back(2);
+  return from_lists(V, F, ent);
+}
+
 void jitter_on_surface(Mesh& mesh, double amount, std::uint64_t seed, const Projector& project) {
   const int nv = mesh.num_vertices();
   Eigen::VectorXd sum = Eigen::VectorXd::Zero(nv), cnt = Eigen::VectorXd::Zero(nv);
@@ -347,6 +374,20 @@ Vec3 capped_cylinder_closest(const Vec3& p, double radius, double height) {
   // Outside: clamping to the solid gives the closest point.
   const double rc = std::min(rho, radius), zc = std::clamp(p.z(), -h, h);
   return Vec3(rc * radial.x(), rc * radial.y(), zc);
+}
+
+double cone_distance(const Vec3& p, double radius, double height) {
+  // In the meridian half-plane (r, z): distance to the side segment (radius, 0) - (0, height)
+  // and to the base segment (0, 0) - (radius, 0).
+  const Eigen::Vector2d q(std::hypot(p.x(), p.y()), p.z());
+  auto to_segment = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    const Eigen::Vector2d d = b - a;
+    const double t = std::clamp((q - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+    return (q - a - t * d).norm();
+  };
+  const double dist = std::min(to_segment({radius, 0}, {0, height}), to_segment({0, 0}, {radius, 0}));
+  const bool inside = q.y() > 0 && q.y() < height * (1 - q.x() / radius);
+  return inside ? -dist : dist;
 }
 
 double capped_cylinder_distance(const Vec3& p, double radius, double height) {

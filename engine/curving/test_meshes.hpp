@@ -36,6 +36,11 @@ Mesh capped_cylinder(int n_around, int n_height, double radius, double height);
 /// tessellators of B-reps produce; strongly non-uniform for large height.
 Mesh capped_cylinder_cad(int n_around, double radius, double height);
 
+/// Closed cone around the z axis: apex (0, 0, height), base circle of the given radius at z = 0.
+/// The side is n_rings rings of n_around vertices below a fan at the apex (entity 1); the base is
+/// a fan around its centre (entity 2). The apex is a cone point: no sharp edge meets it.
+Mesh cone_mesh(int n_rings, int n_around, double radius, double height);
+
 /// Projects a point onto an analytic surface (returns the closest surface point).
 using Projector = std::function<Eigen::Vector3d(const Eigen::Vector3d&)>;
 
@@ -62,5 +67,8 @@ double ellipsoid_distance(const Eigen::Vector3d& p, double a, double b, double c
 /// Signed distance to the closed capped cylinder of capped_cylinder() (z in [-h/2, h/2]).
 double capped_cylinder_distance(const Eigen::Vector3d& p, double radius, double height);
 Eigen::Vector3d capped_cylinder_closest(const Eigen::Vector3d& p, double radius, double height);
+
+/// Signed distance to the closed cone of cone_mesh().
+double cone_distance(const Eigen::Vector3d& p, double radius, double height);
 
 }  // namespace hocurve

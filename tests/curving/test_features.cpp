@@ -114,7 +114,26 @@ TEST_CASE("smooth closed surfaces have no features") {
     CHECK(F.feature_edges == 0);
     CHECK(F.curves.empty());
     CHECK(F.corners == 0);
+    CHECK(F.cone_points == 0);
   }
+}
+
+TEST_CASE("cone points: a cone's apex, sharp or blunt; not a pole fan, not a coarse or jittered smooth surface") {
+  for (double height : {2.0, 0.5, 0.2}) {  // half-angles 27, 63 and 79 degrees
+    const Mesh m = cone_mesh(20, 64, 1.0, height);
+    const Features F = detect(m);
+    INFO("height " << height);
+    CHECK(F.cone_points == 1);
+    CHECK(F.vertex_cone[0] == 1);  // the apex
+  }
+  Mesh jittered = icosphere(4);
+  jitter_on_surface(jittered, 0.3, 7, sphere_closest);
+  for (const Mesh& m : {uv_sphere(40, 160), uv_sphere(8, 16), icosphere(1), jittered, capped_cylinder(32, 8, 0.5, 1.0)})
+    CHECK(detect(m).cone_points == 0);
+  FeatureOptions off;
+  off.cone_points = false;
+  const Mesh cone = cone_mesh(20, 64, 1.0, 0.5);
+  CHECK(detect_features(cone, build_topology(cone.F, cone.num_vertices()), off).cone_points == 0);
 }
 
 TEST_CASE("caps on a smooth surface make no sharp edge; caps of a flat fan keep their rim") {

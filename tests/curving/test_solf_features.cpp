@@ -304,6 +304,14 @@ TEST_CASE("non-uniform triangulations: pole fans, CAD strips, strongly graded") 
     check_result(m, c.r4);
   }
   {
+    // 160-triangle pole fans (aspect 25): the pole's one ring is one circle, whatever its point
+    // count; its fit needs the second ring (was fitted at degree 2: P4 6x below linear).
+    const Mesh m = uv_sphere(40, 160);
+    Case c = run("uv sphere 40x160 (160-triangle pole fans)", m, [](const Eigen::Vector3d& x) { return sphere_distance(x); });
+    CHECK(c.linear / c.p4 >= 1000);
+    check_result(m, c.r4);
+  }
+  {
     const double radius = 0.5, height = 2.0;
     const Mesh m = capped_cylinder_cad(64, radius, height);
     const Dist dist = [&](const Eigen::Vector3d& x) { return capped_cylinder_distance(x, radius, height); };
@@ -328,6 +336,20 @@ TEST_CASE("non-uniform triangulations: pole fans, CAD strips, strongly graded") 
     Case c = run("graded torus 120x48 (spacing ratio ~5)", m,
                  [](const Eigen::Vector3d& x) { return torus_distance(x, 1.0, 0.4); });
     CHECK(c.linear / c.p4 >= 100);
+    check_result(m, c.r4);
+  }
+}
+
+TEST_CASE("cone apex: no fit reaches across it, P4 far below linear") {
+  // A smooth fit through the apex rounds it off (P4 was 1x linear at height 2, 7x further from
+  // the cone than linear at height 0.5, and 9x at 0.2; now 30x, 78x, 78x below: the flat fan
+  // triangles' face nodes, blended partly from the apex's straight triangles, are what is left).
+  for (double height : {2.0, 0.5, 0.2}) {
+    const Mesh m = cone_mesh(20, 64, 1.0, height);
+    const std::string name = "cone, height " + std::to_string(height);
+    Case c = run(name.c_str(), m, [&](const Eigen::Vector3d& x) { return cone_distance(x, 1.0, height); });
+    CHECK(c.r4.features.cone_points == 1);
+    CHECK(c.linear / c.p4 >= 20);
     check_result(m, c.r4);
   }
 }

@@ -1,0 +1,29 @@
+// Cone points: vertices off the feature curves where the surface has a point singularity (the
+// apex of a cone), found by their angle defect.
+#pragma once
+#include "engine/core/mesh.hpp"
+#include "engine/core/topology.hpp"
+
+#include <vector>
+
+namespace hocurve {
+
+struct ConeOptions {
+  /// A vertex is a cone point when its angle defect |2 pi - sum of its face angles| exceeds
+  /// min_defect_deg and its defect per area (the discrete Gaussian curvature) is curvature_ratio
+  /// times that of the median of its neighbours: on a smooth surface, however coarse, the defect
+  /// per area varies slowly (a uv sphere's pole and its neighbours: ~1x); at a cone's apex it is
+  /// concentrated at the apex (the cone itself is flat: its neighbours' defects are ~0). 4
+  /// degrees: cones up to a half-angle of 81 degrees; at 1 degree, 9 vertices of a marching-
+  /// tetrahedra sphere (irregular areas) passed the ratio test, at 2 degrees 1, at 4 none.
+  double min_defect_deg = 4.0;
+  double curvature_ratio = 8.0;
+};
+
+/// Per vertex, 1 for a cone point. Only vertices off the features (vertex_feature[v] == 0; may
+/// be empty) whose faces close a single fan are candidates; their neighbours' curvatures count
+/// when they are candidates too.
+std::vector<char> cone_points(const Mesh& mesh, const Topology& T, const std::vector<char>& vertex_feature,
+                              const ConeOptions& opt = {});
+
+}  // namespace hocurve
