@@ -103,6 +103,16 @@ double kink_angle_deg(const Mesh& mesh, const Topology& T, const std::vector<cha
     A.row(i) *= w;
     z[i] = w * d.dot(n);
   }
+  // The kink term must be determined by the points: on rows of vertices at few distances from
+  // the edge (the short edge of long thin faces: a tube meshed 400 x 12 weights only its own row)
+  // |y| is a combination of the even columns, and its coefficient arbitrary (every tube edge came
+  // out sharp, and P4 no better than linear). Its part outside the other columns' span must be
+  // a fair share of it.
+  Eigen::MatrixXd others(k, 7);
+  others << A.leftCols(6), A.col(7);
+  const Eigen::VectorXd y_abs = A.col(6);
+  const Eigen::VectorXd outside = y_abs - others * others.colPivHouseholderQr().solve(y_abs);
+  if (!(outside.norm() > 1e-3 * y_abs.norm())) return 0.0;
   const Eigen::VectorXd c = A.colPivHouseholderQr().solve(z);
   if (!c.allFinite()) return 0.0;
   return 2 * std::atan(std::abs(c[6])) * 180.0 / std::numbers::pi;

@@ -118,6 +118,15 @@ TEST_CASE("smooth closed surfaces have no features") {
   }
 }
 
+TEST_CASE("kink test: long thin faces across a smooth 30-degree edge leave the kink undetermined, not sharp") {
+  // A torus tube with 12 vertices around and 400 along: the short edges between the tube's rows
+  // have 30-degree dihedrals, and the vertices near them lie on a few rows, where |y| is a
+  // combination of the even columns: the kink came out arbitrary and every such edge sharp.
+  const Features F = detect(torus_grid(400, 12, 1.0, 0.4));
+  CHECK(F.sharp_edges == 0);
+  CHECK(F.kink_edges == 0);
+}
+
 TEST_CASE("cone points: a cone's apex, sharp or blunt; not a pole fan, not a coarse or jittered smooth surface") {
   for (double height : {2.0, 0.5, 0.2}) {  // half-angles 27, 63 and 79 degrees
     const Mesh m = cone_mesh(20, 64, 1.0, height);

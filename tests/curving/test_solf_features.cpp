@@ -332,6 +332,15 @@ TEST_CASE("non-uniform triangulations: pole fans, CAD strips, strongly graded") 
     check_result(m, c.r4);
   }
   {
+    // Long thin faces (aspect 10) across smooth 30-degree edges: no false crease (was: every
+    // tube edge sharp, P4 1x linear).
+    const Mesh m = torus_grid(400, 12, 1.0, 0.4);
+    Case c = run("torus 400x12 (long thin faces)", m, [](const Eigen::Vector3d& x) { return torus_distance(x, 1.0, 0.4); });
+    CHECK(c.r4.features.sharp_edges == 0);
+    CHECK(c.linear / c.p4 >= 1000);
+    check_result(m, c.r4);
+  }
+  {
     const Mesh m = graded_torus(120, 48, 1.0, 0.4, 0.8);
     Case c = run("graded torus 120x48 (spacing ratio ~5)", m,
                  [](const Eigen::Vector3d& x) { return torus_distance(x, 1.0, 0.4); });
