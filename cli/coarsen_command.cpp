@@ -73,6 +73,7 @@ nlohmann::json decimation_json(const DecimateResult& d, double seconds) {
             {"deviation", r.deviation}}},
           {"feature_edges", d.feature_edges},
           {"corners", d.corners},
+          {"fewest_faces", d.fewest_faces},
           {"map", {{"collapse_records", d.map.num_collapses()}, {"tracked_vertices", d.map.vertex_coarse_face.size()}}},
           {"seconds", {{"total", seconds}, {"flatten", d.seconds_flatten}, {"tracking", d.seconds_tracking}}}};
 }

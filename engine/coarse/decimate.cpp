@@ -1,6 +1,7 @@
 #include "engine/coarse/decimate.hpp"
 
 #include "engine/coarse/dense_surface.hpp"
+#include "engine/coarse/face_bound.hpp"
 #include "engine/coarse/flatten.hpp"
 #include "engine/coarse/quadric.hpp"
 #include "engine/coarse/surface_distance.hpp"
@@ -522,6 +523,7 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
     if (fm.edge[e]) D.feat.insert(edge_key(T.E(e, 0), T.E(e, 1))), ++R.feature_edges;
   }
   for (int v = 0; v < nv; ++v) R.corners += fm.corner[v];
+  R.fewest_faces = fewest_faces_keeping(fine, T, fm.edge, fm.corner);
   // Quadrics: area-weighted face planes, plus planes through feature edges perpendicular to
   // their faces so that feature curves cost what they deviate.
   D.Q.assign(nv, Quadric{});
@@ -634,6 +636,9 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
               ", valence " + std::to_string(R.rejected.valence) + ", fold " + std::to_string(R.rejected.fold) +
               ", sliver " + std::to_string(R.rejected.sliver) + ", flatten " + std::to_string(R.rejected.flatten) +
               ", deviation " + std::to_string(R.rejected.deviation) + ")";
+  if (!R.reached_target && R.fewest_faces > R.target_faces)
+    R.message += "; keeping the topology, " + std::to_string(R.corners) + " corners and the feature curves needs at least " +
+                 std::to_string(R.fewest_faces) + " faces";
 
   if (opt.build_map) {
     CoarseMap& M = R.map;

@@ -80,6 +80,9 @@ struct DecimateResult {
   long long deferred = 0;           ///< collapses put off by defer_deviation (each done later or never)
   RejectCounts rejected;
   int feature_edges = 0, corners = 0;
+  /// The fewest faces any mesh keeping the input's topology, corners and feature curves can have
+  /// (fewest_faces_keeping): a target below it cannot be reached whatever the checks allow.
+  int fewest_faces = 0;
   double seconds_total = 0, seconds_flatten = 0, seconds_tracking = 0;
 };
 

@@ -2,6 +2,9 @@
 // refused input, scale invariance.
 #include "coarse/coarse_test_meshes.hpp"
 #include "engine/coarse/decimate.hpp"
+#include "engine/coarse/face_bound.hpp"
+#include "engine/curving/features.hpp"
+#include "engine/curving/test_meshes.hpp"
 #include "engine/coarse/surface_distance.hpp"
 #include "engine/core/error.hpp"
 #include "engine/core/topology.hpp"
@@ -215,9 +218,32 @@ TEST_CASE("an unreachable target is reported, not hidden") {
   const DecimateResult R = decimate(fine, opt);
   CHECK_FALSE(R.reached_target);
   CHECK(R.coarse.num_faces() >= 12);
+  CHECK(R.fewest_faces == 12);  // two triangles per side: no mesh keeping the cube's edges has fewer
   CHECK(R.message.find("not reached") != std::string::npos);
+  CHECK(R.message.find("needs at least 12 faces") != std::string::npos);
   CHECK(R.rejected.total() > 0);
   CHECK(check_closed_manifold(R.coarse) == 2);
+}
+
+TEST_CASE("fewest faces keeping the features: cube 12, capped cylinder 8, sphere 4, torus 14, disk 1") {
+  auto fewest = [](const Mesh& m) {
+    const Topology T = build_topology(m.F, m.num_vertices());
+    const Features F = detect_features(m, T, {});
+    return fewest_faces_keeping(m, T, F.edge_feature, F.vertex_corner);
+  };
+  CHECK(fewest(coarse_test::cube(6)) == 12);              // 8 corners, 12 curves
+  CHECK(fewest(capped_cylinder(32, 4, 0.5, 1.0)) == 8);   // two rim loops: 3 + 3 vertices
+  CHECK(fewest(coarse_test::icosphere(3)) == 4);          // a tetrahedron
+  CHECK(fewest(coarse_test::torus(32, 16, 1.0, 0.3)) == 14);  // Csaszar's 7 vertices
+  CHECK(fewest(coarse_test::keep_faces(uv_sphere(16, 32), [](const Eigen::Vector3d& c) { return c.z() > 0.5; })) == 1);
+  // Two unit spheres side by side: each needs its own tetrahedron.
+  Mesh two = coarse_test::icosphere(2);
+  const Mesh one = two;
+  two.V.conservativeResize(2 * one.num_vertices(), 3);
+  two.F.conservativeResize(2 * one.num_faces(), 3);
+  two.V.bottomRows(one.num_vertices()) = one.V.rowwise() + Eigen::RowVector3d(3, 0, 0);
+  two.F.bottomRows(one.num_faces()) = one.F.array() + one.num_vertices();
+  CHECK(fewest(two) == 8);
 }
 
 TEST_CASE("non-manifold input is refused with InputError") {
