@@ -389,6 +389,52 @@ TEST_CASE("capped cylinder refined: rim edges split onto the rim, the rims stay 
   CHECK(conformity_gap(hm) < 1e-12);
 }
 
+TEST_CASE("open cap refined: boundary edges split onto the boundary, the map stays a bijection") {
+  // A spherical cap (boundary circle at z = 0.8) under few coarse edges: the boundary's P4 arcs split.
+  const Mesh fine = coarse_test::keep_faces(uv_sphere(60, 100), [](const Eigen::Vector3d& c) { return c.z() > 0.8; });
+  DecimateOptions dopt;
+  dopt.target_faces = 24;
+  DecimateResult D = decimate(fine, dopt);
+  const int nv0 = D.coarse.num_vertices();
+  RefineOptions ropt;
+  ropt.tolerance = 2.5e-4;  // x diagonal: the dense facets themselves are up to 1.5e-4 x diagonal off the sphere
+  ropt.max_faces = 120;
+  const RefineResult R = lift_and_refine(fine, D, lift_options(dopt, 4), ropt);
+  MESSAGE(D.coarse.num_faces() << " faces: " << R.message << "; largest deviation " << R.deviation_before << " -> "
+                               << R.deviation_after);
+  const Topology T = build_topology(D.coarse.F, D.coarse.num_vertices());
+  std::vector<char> boundary(D.coarse.num_vertices(), 0);
+  for (int e = 0; e < T.num_edges(); ++e)
+    if (T.edge_faces[e].size() == 1) boundary[T.E(e, 0)] = boundary[T.E(e, 1)] = 1;
+  // The dense boundary: a 100-gon in the plane of its ring, radius rho.
+  const double z0 = fine.V.col(2).minCoeff(), rho = std::sqrt(1 - z0 * z0);
+  int boundary_splits = 0;
+  double off_plane = 0, inside = 0;
+  for (int v = nv0; v < D.coarse.num_vertices(); ++v)
+    if (boundary[v]) {
+      ++boundary_splits;
+      const Eigen::Vector3d x = D.coarse.V.row(v).transpose();
+      off_plane = std::max(off_plane, std::abs(x.z() - z0));
+      inside = std::max(inside, rho - x.head<2>().norm());
+      CHECK(D.coarse_vertex_feature[v]);
+    }
+  MESSAGE(boundary_splits << " split vertices on the boundary: " << off_plane << " off its plane, " << inside
+                          << " inside its circle");
+  CHECK(boundary_splits > 0);
+  CHECK(off_plane < 1e-12);  // on a dense boundary edge: a chord of the 100-gon
+  CHECK(inside <= rho * (1 - std::cos(std::numbers::pi / 100)) + 1e-12);
+  CHECK(R.deviation_after < R.deviation_before);
+  CHECK(check_validity(R.lift.mesh).invalid_after == 0);
+  CHECK(conformity_gap(R.lift.mesh) < 1e-12);
+  // Dense vertices round trip through the map after the splits.
+  double worst = 0;
+  for (int v = 0; v < fine.num_vertices(); ++v) {
+    const SurfacePoint sp = coarse_to_fine(D.map, D.map.vertex_coarse_face[v], D.map.vertex_coarse_bary.row(v).transpose());
+    worst = std::max(worst, (sp.position - fine.V.row(v).transpose()).norm());
+  }
+  CHECK(worst < 1e-12);
+}
+
 TEST_CASE("choose_closest_candidate: each cluster takes the candidate nearest the dense mesh, conforming") {
   const Mesh fine = torus_grid(60, 30, 1.0, 0.4);
   DecimateOptions dopt;
