@@ -435,6 +435,50 @@ FitReference quadric_reference(const Eigen::Vector3d& o, const Eigen::Vector3d& 
   return ref;
 }
 
+namespace {
+
+/// Rows of the weighted least-squares system of fit F's frame and reference at degree `degree`:
+/// A(i, j) = w_i monomial_j(u_i / h, v_i / h), b_i = w_i height_i / h, the points P then Q.
+void weighted_design(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::VectorXd& w, const Eigen::MatrixXd& Q,
+                     const Eigen::VectorXd& wq, int degree, Eigen::MatrixXd& A, Eigen::VectorXd& b) {
+  const int k = static_cast<int>(P.rows()) + static_cast<int>(Q.rows());
+  const int mmax = fit_coefficients(degree);
+  A.resize(k, mmax);
+  b.resize(k);
+  double mono[40];
+  for (int i = 0; i < k; ++i) {
+    const bool is_vertex = i < P.rows();
+    const Eigen::Vector3d q = is_vertex ? Eigen::Vector3d(P.row(i)) : Eigen::Vector3d(Q.row(i - P.rows()));
+    const double wi = is_vertex ? w[i] : wq[i - P.rows()];
+    const Eigen::Vector3d uvz = F.coords(q);
+    monomials(uvz[0] / F.h, uvz[1] / F.h, degree, mono);
+    for (int j = 0; j < mmax; ++j) A(i, j) = wi * mono[j];
+    b[i] = wi * uvz[2] / F.h;
+  }
+}
+
+}  // namespace
+
+double leave_one_out_residual(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::VectorXd& w) {
+  if (F.degree < 1 || F.identity) return std::numeric_limits<double>::infinity();
+  Eigen::MatrixXd A;
+  Eigen::VectorXd b;
+  weighted_design(F, P, w, Eigen::MatrixXd(), Eigen::VectorXd(), F.degree, A, b);
+  const int m = static_cast<int>(A.cols());
+  if (A.rows() <= m) return std::numeric_limits<double>::infinity();
+  // Hat matrix diagonal h_ii = |row i of the thin Q|^2; a left-out point's residual is r_i / (1 - h_ii).
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(A);
+  const Eigen::MatrixXd Qthin = qr.householderQ() * Eigen::MatrixXd::Identity(A.rows(), m);
+  const Eigen::VectorXd r = b - A * F.c;
+  double press = 0;
+  for (Eigen::Index i = 0; i < A.rows(); ++i) {
+    const double lev = Qthin.row(i).squaredNorm();
+    if (!(lev < 1 - 1e-9)) return std::numeric_limits<double>::infinity();  // a point only it fixes
+    press += std::pow(r[i] / (1 - lev), 2);
+  }
+  return std::sqrt(press);
+}
+
 LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, double h,
                           const Eigen::MatrixXd& P, const Eigen::VectorXd& w, int degree,
                           const FitOptions& opt, const Eigen::MatrixXd& Q,
@@ -457,18 +501,9 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
   const int k = static_cast<int>(P.rows()) + static_cast<int>(Q.rows());
   const int mmax = fit_coefficients(degree);
   // Full-degree rows once; lower degrees use the leading columns.
-  Eigen::MatrixXd A(k, mmax);
-  Eigen::VectorXd b(k);
-  double mono[40];
-  for (int i = 0; i < k; ++i) {
-    const bool is_vertex = i < P.rows();
-    const Eigen::Vector3d q = is_vertex ? Eigen::Vector3d(P.row(i)) : Eigen::Vector3d(Q.row(i - P.rows()));
-    const double wi = is_vertex ? w[i] : wq[i - P.rows()];
-    const Eigen::Vector3d uvz = F.coords(q);
-    monomials(uvz[0] / h, uvz[1] / h, degree, mono);
-    for (int j = 0; j < mmax; ++j) A(i, j) = wi * mono[j];
-    b[i] = wi * uvz[2] / h;
-  }
+  Eigen::MatrixXd A;
+  Eigen::VectorXd b;
+  weighted_design(F, P, w, Q, wq, degree, A, b);
   // Column scaling once: a column's norm does not depend on how many leading columns a solve
   // keeps. Solves that would include a zero column (nonzero <= j) fail, as rank deficient.
   Eigen::VectorXd scale(mmax);
@@ -600,6 +635,17 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
   return low;
 }
 
+namespace {
+
+/// Whether the fit over the quadric reference (fq) beats the other one (f) on the same points.
+bool better_quadric(const LocalFit& fq, const LocalFit& f, const Eigen::MatrixXd& P, const Eigen::VectorXd& w,
+                    const FitOptions& opt) {
+  if (!opt.quadric_by_leave_one_out) return fq.residual < opt.quadric_gain * f.residual;
+  return leave_one_out_residual(fq, P, w) < opt.quadric_loo_gain * leave_one_out_residual(f, P, w);
+}
+
+}  // namespace
+
 LocalFit reference_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n0, double h, const Eigen::MatrixXd& P,
                        const Eigen::VectorXd& wt, int p, const FitOptions& opt) {
   // The reference surface is set up in the tilt-corrected normal's frame: a tilted torus
@@ -613,10 +659,11 @@ LocalFit reference_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n0, doub
     // whole fit, same points and weights): exact on quadrics, whose curvature varies along
     // the stencil, where the torus is exact only on spheres, cylinders and tori.
     const FitReference qr = quadric_reference(o, nr, P, wt);
-    if (qr.quadric_ref && qr.residual < opt.quadric_gain * ref.residual) {
+    const double gate = opt.quadric_by_leave_one_out ? 1.0 : opt.quadric_gain;
+    if (qr.quadric_ref && qr.residual < gate * ref.residual) {
       LocalFit tq = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr);
       if (tq.degree == p && tq.pivot_ratio >= opt.support_condition &&
-          (trial.degree < p || tq.residual < opt.quadric_gain * trial.residual)) {
+          (trial.degree < p || better_quadric(tq, trial, P, wt, opt))) {
         trial = std::move(tq);
         ref = qr;
       }
@@ -641,8 +688,7 @@ LocalFit one_sided_quadric_fit(const Mesh& mesh, const Wedges& W, int w, const E
   const FitReference qr = quadric_reference(plane.o, plane.n, P, wt);
   if (!qr.quadric_ref) return plane;
   LocalFit fq = solve_height_fit(plane.o, plane.n, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr);
-  if (fq.degree != p || fq.pivot_ratio < opt.support_condition || !(fq.residual < opt.quadric_gain * plane.residual))
-    return plane;
+  if (fq.degree != p || fq.pivot_ratio < opt.support_condition || !better_quadric(fq, plane, P, wt, opt)) return plane;
   for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
     const int f = W.wedge_faces[i];
     const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));

@@ -62,6 +62,15 @@ struct FitOptions {
   /// Keeping it whenever its residual was merely lower bulged a flat t13 strip (ratio 0.97) and
   /// cost torus h = 0.05 P4 1.2x.
   bool reference_quadric = true;
+  /// Choose between the quadric and the other reference by their fits' leave-one-out residuals
+  /// (leave_one_out_residual, quadric when below quadric_loo_gain x the other's) instead of the
+  /// in-sample residuals with quadric_gain (the quadric is then tried whenever it fits the
+  /// stencil better than the torus's quadratic). Measured (bench/accuracy.py, max error): CAD
+  /// screw d/80, d/160 P4 1.62e-3 / 3.00e-4 -> 1.25e-3 / 2.50e-4, P6 2.15e-3 / 3.57e-4 -> 1.43e-3 /
+  /// 2.68e-4; torus h = 0.05 P4 1.16e-7 -> 1.39e-7; the rest unchanged. Gain 1.0: torus h = 0.1
+  /// 3.5e-6 -> 4.0e-6; 0.5: screw d/80 1.85e-3 (worse than before).
+  bool quadric_by_leave_one_out = true;
+  double quadric_loo_gain = 0.7;
   /// ... when its residual is below quadric_gain x the torus fit's (and, to save the second
   /// solve where it cannot win, the quadric's own residual below quadric_gain x the torus
   /// quadratic's: not on spheres and cylinders, where both are exact).
@@ -232,6 +241,12 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
                           const FitOptions& opt, const Eigen::MatrixXd& Q = Eigen::MatrixXd(),
                           const Eigen::VectorXd& wq = Eigen::VectorXd(), bool basic = false,
                           const FitReference& ref = FitReference());
+
+/// Weighted leave-one-out residual (PRESS) of fit F over the points P (row weights w) it was
+/// fitted to: sqrt(sum (r_i / (1 - h_ii))^2), h_ii the hat matrix diagonal, in units of h. How
+/// well the fit predicts a point it did not see: the in-sample residual of a 14-coefficient fit
+/// to 28 points flatters the more flexible reference. Infinity when a point alone fixes the fit.
+double leave_one_out_residual(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::VectorXd& w);
 
 /// The fit of points P (row weights w) at o, area-weighted normal n0, over a reference surface:
 /// the osculating torus (reference_surface), or the stencil's quadric where that fits much better

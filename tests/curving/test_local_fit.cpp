@@ -61,6 +61,30 @@ TEST_CASE("height fits reproduce polynomials of their degree in any frame") {
   }
 }
 
+TEST_CASE("leave-one-out residual: zero where the fit is exact, above the in-sample residual elsewhere") {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-1, 1);
+  const Eigen::Vector3d o = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::UnitZ();
+  const double h = 0.1;
+  for (const bool exact : {true, false}) {
+    const int k = 40;
+    Eigen::MatrixXd P(k, 3);
+    Eigen::VectorXd w(k);
+    for (int i = 0; i < k; ++i) {
+      const double u = 3 * h * U(rng), v = 3 * h * U(rng);
+      const double z = exact ? 0.3 * u * u - 0.2 * u * v : 0.05 * std::sin(20 * u) * std::cos(15 * v);
+      P.row(i) << u, v, z;
+      w[i] = std::exp(-(u * u + v * v) / (2 * h * h));
+    }
+    const LocalFit F = solve_height_fit(o, n, h, P, w, 2, FitOptions{});
+    REQUIRE(F.degree == 2);
+    const double loo = leave_one_out_residual(F, P, w);
+    INFO("exact " << exact << ": residual " << F.residual << ", leave-one-out " << loo);
+    if (exact) CHECK(loo < 1e-12);
+    else CHECK(loo > 1.05 * F.residual);
+  }
+}
+
 TEST_CASE("too few points or points on lines lower the degree") {
   const Eigen::Vector3d o(0, 0, 0), n(0, 0, 1);
   // 6 points cannot determine the 14 coefficients of degree 4: degree 2 (5 coefficients).
