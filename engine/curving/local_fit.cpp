@@ -659,8 +659,7 @@ LocalFit reference_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n0, doub
     // whole fit, same points and weights): exact on quadrics, whose curvature varies along
     // the stencil, where the torus is exact only on spheres, cylinders and tori.
     const FitReference qr = quadric_reference(o, nr, P, wt);
-    const double gate = opt.quadric_by_leave_one_out ? 1.0 : opt.quadric_gain;
-    if (qr.quadric_ref && qr.residual < gate * ref.residual) {
+    if (qr.quadric_ref && qr.residual < opt.quadric_gain * ref.residual) {
       LocalFit tq = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr);
       if (tq.degree == p && tq.pivot_ratio >= opt.support_condition &&
           (trial.degree < p || better_quadric(tq, trial, P, wt, opt))) {

@@ -64,11 +64,11 @@ struct FitOptions {
   bool reference_quadric = true;
   /// Choose between the quadric and the other reference by their fits' leave-one-out residuals
   /// (leave_one_out_residual, quadric when below quadric_loo_gain x the other's) instead of the
-  /// in-sample residuals with quadric_gain (the quadric is then tried whenever it fits the
-  /// stencil better than the torus's quadratic). Measured (bench/accuracy.py, max error): CAD
-  /// screw d/80, d/160 P4 1.62e-3 / 3.00e-4 -> 1.25e-3 / 2.50e-4, P6 2.15e-3 / 3.57e-4 -> 1.43e-3 /
-  /// 2.68e-4; torus h = 0.05 P4 1.16e-7 -> 1.39e-7; the rest unchanged. Gain 1.0: torus h = 0.1
-  /// 3.5e-6 -> 4.0e-6; 0.5: screw d/80 1.85e-3 (worse than before).
+  /// in-sample residuals with quadric_gain (still the gate for trying the quadric at all: tried
+  /// whenever it merely fits better, on float32 input always, the fits took 2.4x as long).
+  /// Measured (bench/accuracy.py, max error): CAD screw d/80, d/160 P4 1.62e-3 / 3.00e-4 -> 1.25e-3
+  /// / 2.50e-4; the rest unchanged. Gain 1.0: torus h = 0.1 P4 3.5e-6 -> 4.0e-6; 0.5: screw d/80
+  /// 1.85e-3 (worse than before).
   bool quadric_by_leave_one_out = true;
   double quadric_loo_gain = 0.7;
   /// ... when its residual is below quadric_gain x the torus fit's (and, to save the second
