@@ -32,8 +32,8 @@ std::uint64_t edge_key(int a, int b) {
   return (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b);
 }
 
-/// Feature marks the decimation respects. Boundary edges are always features (they are never
-/// collapsed); sharp edges and entity borders only when preserve_features.
+/// Feature marks the decimation respects. Boundary edges are always features (they collapse only
+/// along the boundary); sharp edges and entity borders only when preserve_features.
 struct FeatureMarks {
   std::vector<char> edge;    ///< per topology edge
   std::vector<char> vertex;  ///< on a feature edge
@@ -203,12 +203,6 @@ struct Decimator {
       for (int x : F[f])
         if (x != v && std::find(out.begin(), out.end(), x) == out.end()) out.push_back(x);
   }
-  int faces_on_edge(int a, int b) const {
-    int n = 0;
-    for (int f : vf[a]) n += (F[f][0] == b || F[f][1] == b || F[f][2] == b);
-    return n;
-  }
-
   Plan plan(int a, int b) const {
     Plan P;
     Quadric q = Q[a];

@@ -56,7 +56,7 @@ struct DecimateOptions {
 struct RejectCounts {
   long long link = 0;       ///< link condition: the collapse would change the topology
   long long feature = 0;    ///< would move a corner, or a feature vertex off its curve
-  long long boundary = 0;   ///< an edge with one face whose ends are not both on the open boundary
+  long long boundary = 0;   ///< neither an interior edge (two faces) nor one of the open boundary (one)
   long long valence = 0;    ///< a vertex would drop below 3 faces, or the patch is too large
   long long fold = 0;       ///< a face normal would turn more than max_normal_change_deg (3D fold-over)
   long long sliver = 0;     ///< a new triangle would be thinner than min_angle_deg

@@ -28,8 +28,8 @@ EdgeSet edge_set(const Topology& T, const std::vector<char>& marked) {
 /// Per element in `worst` (worst first, at most budget of them), the edge to split: the terminal
 /// edge of its longest-edge propagation path (Rivara's LEPP: from the element across its longest
 /// edge until two neighbours share their longest edge), so that bisection does not make thinner
-/// triangles; the edge before it on the path when the terminal edge may not split (a boundary
-/// edge, or one taken by an element before).
+/// triangles; the edge before it on the path when the terminal edge may not split (taken by an
+/// element before, or non-manifold).
 std::vector<std::array<int, 2>> edges_to_split(const DecimateResult& dec, const std::vector<int>& worst, int budget) {
   const Mesh& C = dec.coarse;
   const Topology T = build_topology(C.F, C.num_vertices());
@@ -43,7 +43,7 @@ std::vector<std::array<int, 2>> edges_to_split(const DecimateResult& dec, const 
   std::vector<char> taken(T.num_edges(), 0);
   auto may_split = [&](int e) {
     const auto& ef = T.edge_faces[e];
-    return !taken[e] && (ef.size() == 2 || ef.size() == 1);  // the open boundary splits along itself
+    return !taken[e] && ef.size() <= 2;  // interior or open-boundary edges; not non-manifold ones
   };
   std::vector<std::array<int, 2>> out;
   for (int f : worst) {
