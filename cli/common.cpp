@@ -29,7 +29,9 @@ LoadedInput load_input(const std::string& path, const Progress& progress) {
   in.read = std::move(r.report);
   double t1 = now_seconds();
   progress("validate", 0.05);
-  in.validation = validate_mesh(in.mesh);
+  ValidateOptions vo;
+  vo.name = path;  // messages and warnings name the file, as the reader's do
+  in.validation = validate_mesh(in.mesh, vo);
   in.read_seconds = t1 - t0;
   in.validate_seconds = now_seconds() - t1;
   return in;
@@ -56,6 +58,8 @@ nlohmann::json input_json(const std::string& path, const LoadedInput& in) {
         {"duplicate_faces_removed", v.duplicate_faces},
         {"degenerate_faces_removed", v.degenerate_faces},
         {"zero_area_faces", v.zero_area_faces},
+        {"zero_area_caps_flipped", v.zero_area_caps_flipped},
+        {"zero_area_flaps_removed", v.zero_area_flaps_removed},
         {"unused_vertices_removed", v.unused_vertices}}},
       {"warnings", [&] {
          auto w = in.read.warnings;

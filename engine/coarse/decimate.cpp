@@ -305,7 +305,9 @@ Reason Decimator::check_and_collapse(const Plan& P, bool may_defer, double& devi
     const double lno = no.norm(), lnn = nn.norm();
     const double scale = (xn[1] - xn[0]).squaredNorm() + (xn[2] - xn[0]).squaredNorm() + (xn[2] - xn[1]).squaredNorm();
     if (!(lnn > 1e-12 * scale)) return Reason::sliver;
-    if (lno > 0 && no.dot(nn) < cos_fold * lno * lnn) return Reason::fold;
+    // A zero-area face (a cap closing a T-junction) has no normal to fold away from.
+    const double scale_old = (xo[1] - xo[0]).squaredNorm() + (xo[2] - xo[0]).squaredNorm() + (xo[2] - xo[1]).squaredNorm();
+    if (lno > kZeroArea * scale_old && no.dot(nn) < cos_fold * lno * lnn) return Reason::fold;
     const double cmin = min_angle_cos_max(xn[0], xn[1], xn[2]);
     if (cmin > cos_min_angle && cmin > worst_old) return Reason::sliver;
   }

@@ -29,4 +29,9 @@ struct Mesh {
   int entity_of(int f) const { return face_entity.size() ? face_entity[f] : 1; }
 };
 
+/// A straight triangle has zero area when |e1 x e2| <= kZeroArea x (its longest edge)^2: its
+/// smallest height is below ~1e-12 of its longest edge. One tolerance for every stage, so the
+/// input report and the validity check count the same faces.
+inline constexpr double kZeroArea = 1e-12;
+
 }  // namespace hocurve

@@ -20,9 +20,6 @@ namespace hocurve {
 
 namespace {
 
-// A straight triangle is degenerate when |e1 x e2| <= kDegenerate * (longest edge)^2,
-// i.e. its smallest height is below ~1e-12 of its longest edge.
-constexpr double kDegenerate = 1e-12;
 // Bernstein coefficients decide "valid" once they clear the threshold by this fraction of
 // their magnitude (rounding in the products must not certify a zero).
 constexpr double kCertify = 1e-10;
@@ -73,7 +70,7 @@ bool local_frame(const double* X, int n, double* xy) {
   const double js = std::sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
   auto sq = [](const double* v) { return v[0] * v[0] + v[1] * v[1] + v[2] * v[2]; };
   const double lmax = std::max({sq(e1), sq(e2), sq(e3)});
-  if (!(js > kDegenerate * lmax) || !std::isfinite(js)) return false;
+  if (!(js > kZeroArea * lmax) || !std::isfinite(js)) return false;
   const double l1 = std::sqrt(sq(e1));
   const double nn[3] = {cr[0] / js, cr[1] / js, cr[2] / js};
   const double t1[3] = {e1[0] / l1, e1[1] / l1, e1[2] / l1};

@@ -202,8 +202,8 @@ void check_finite_vertices(const Mesh& mesh, const std::string& name) {
   for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(mesh.V(v, d)))
-        throw InputError(name, "vertex " + std::to_string(v) + " has a " +
-                                   (std::isnan(mesh.V(v, d)) ? "NaN" : "infinite") + " " + axis[d] +
+        throw InputError(name, "vertex " + std::to_string(v) + " has " +
+                                   (std::isnan(mesh.V(v, d)) ? "a NaN" : "an infinite") + " " + axis[d] +
                                    " coordinate");
 }
 }  // namespace io_detail

@@ -10,7 +10,7 @@
 namespace hocurve::io_detail {
 namespace {
 
-const char* bad_kind(double x) { return std::isnan(x) ? "NaN" : "infinite"; }
+const char* bad_kind(double x) { return std::isnan(x) ? "a NaN" : "an infinite"; }
 
 /// Fills mesh.V / mesh.F from n_facets*3 interleaved points, welding when asked.
 template <class Real>
@@ -64,7 +64,7 @@ void read_stl_binary(std::string_view b, const std::string& name, const ReadOpti
     for (int k = 0; k < 9; ++k)
       if (!std::isfinite(pts[9ull * f + k])) [[unlikely]]
         throw InputError(name + ": facet " + std::to_string(f),
-                         "vertex " + std::to_string(k / 3) + " has a " + bad_kind(pts[9ull * f + k]) +
+                         "vertex " + std::to_string(k / 3) + " has " + bad_kind(pts[9ull * f + k]) +
                              " coordinate");
   build_from_soup(pts, opt, out);
 }
@@ -115,7 +115,7 @@ void read_stl_ascii(std::string_view b, const std::string& name, const ReadOptio
           const double x = sc.number("a coordinate");
           if (!std::isfinite(x))
             throw InputError(name + ": line " + std::to_string(vline),
-                             "facet " + std::to_string(facet) + ": vertex " + std::to_string(corners) + " has a " +
+                             "facet " + std::to_string(facet) + ": vertex " + std::to_string(corners) + " has " +
                                  bad_kind(x) + " coordinate");
           pts.push_back(x);
         }

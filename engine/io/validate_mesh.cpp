@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <numeric>
 
 namespace hocurve {
@@ -29,6 +31,77 @@ void keep_faces(Mesh& m, const std::vector<char>& keep) {
   }
   m.F.conservativeResize(k, 3);
   if (m.face_entity.size()) m.face_entity.conservativeResize(k);
+}
+
+bool zero_area(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const double l2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+  // Relative test: |cross| = 2 area; collinear corners leave only rounding noise (~1e-16 l^2).
+  return (b - a).cross(c - a).norm() <= kZeroArea * l2;
+}
+
+/// Removes zero-area caps: a face (a, b, m) whose m lies inside its longest edge ab closes a
+/// T-junction; with the face g = (a, b, x) across ab it is replaced by g split at m, (a, m, x)
+/// and (m, b, x) (an edge flip). The two new faces cover exactly g, so the surface is unchanged,
+/// and no element of it has zero area any more. Skipped where ab is not shared by exactly two
+/// faces, the new edge m-x exists already or a new face would have zero area. Returns the count.
+long long flip_zero_area_caps(Mesh& m) {
+  long long flipped = 0;
+  for (int pass = 0; pass < 8; ++pass) {
+    const Topology T = build_topology(m.F, m.num_vertices());
+    std::vector<char> touched(m.num_faces(), 0);
+    long long before = flipped;
+    for (int f = 0; f < m.num_faces(); ++f) {
+      if (touched[f]) continue;
+      const Eigen::Vector3d x0 = m.V.row(m.F(f, 0)), x1 = m.V.row(m.F(f, 1)), x2 = m.V.row(m.F(f, 2));
+      if (!zero_area(x0, x1, x2)) continue;
+      const double l[3] = {(x2 - x1).squaredNorm(), (x0 - x2).squaredNorm(), (x1 - x0).squaredNorm()};
+      const int j = static_cast<int>(std::max_element(l, l + 3) - l);  // corner opposite the longest edge
+      const int mid = m.F(f, j), a = m.F(f, (j + 1) % 3), b = m.F(f, (j + 2) % 3);
+      const Eigen::Vector3d pa = m.V.row(a), pb = m.V.row(b), pm = m.V.row(mid);
+      const double t = (pm - pa).dot(pb - pa) / (pb - pa).squaredNorm();
+      if (!(t > 1e-6 && t < 1 - 1e-6)) continue;
+      int edge = -1;
+      for (int k = 0; k < 3; ++k) {
+        const int ek = T.FE(f, k);
+        if ((T.E(ek, 0) == a && T.E(ek, 1) == b) || (T.E(ek, 0) == b && T.E(ek, 1) == a)) edge = ek;
+      }
+      if (edge < 0 || T.edge_faces[edge].size() != 2) continue;
+      const int g = T.edge_faces[edge][0] == f ? T.edge_faces[edge][1] : T.edge_faces[edge][0];
+      if (touched[g]) continue;
+      int gp = 0;  // g = (p, q, x) in its own cyclic order with {p, q} = {a, b}
+      while (gp < 3 && m.F(g, (gp + 2) % 3) != (m.F(g, 0) + m.F(g, 1) + m.F(g, 2)) - a - b) ++gp;
+      if (gp == 3) continue;
+      const int p = m.F(g, gp), q = m.F(g, (gp + 1) % 3), x = m.F(g, (gp + 2) % 3);
+      bool exists = false;
+      for (auto [eb, ee] = T.edges_of(mid); eb != ee; ++eb) exists |= T.E(*eb, 0) == x || T.E(*eb, 1) == x;
+      const Eigen::Vector3d px = m.V.row(x);
+      if (exists || zero_area(m.V.row(p), pm, px) || zero_area(pm, m.V.row(q), px)) continue;
+      m.F.row(f) << p, mid, x;
+      m.F.row(g) << mid, q, x;
+      if (m.face_entity.size()) m.face_entity[f] = m.face_entity[g];
+      touched[f] = touched[g] = 1;
+      ++flipped;
+    }
+    if (flipped == before) break;
+  }
+  return flipped;
+}
+
+/// Zero-area faces at most one of whose edges another face uses (a flap hanging on an edge, a
+/// lone collinear triangle): removing them opens no hole (their other edges bound nothing else)
+/// and changes no surface. Returns the count removed.
+long long drop_zero_area_flaps(Mesh& m) {
+  const Topology T = build_topology(m.F, m.num_vertices());
+  std::vector<char> keep(m.num_faces(), 1);
+  long long dropped = 0;
+  for (int f = 0; f < m.num_faces(); ++f) {
+    if (!zero_area(m.V.row(m.F(f, 0)), m.V.row(m.F(f, 1)), m.V.row(m.F(f, 2)))) continue;
+    int shared = 0;
+    for (int k = 0; k < 3; ++k) shared += T.edge_faces[T.FE(f, k)].size() > 1;
+    if (shared <= 1) keep[f] = 0, ++dropped;
+  }
+  if (dropped) keep_faces(m, keep);
+  return dropped;
 }
 
 /// Does face f walk the edge a->b (rather than b->a)?
@@ -57,7 +130,7 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(m.V(v, d)))
         throw InputError(name + (name.empty() ? "" : ": ") + "vertex " + std::to_string(v),
-                         std::string("has a ") + (std::isnan(m.V(v, d)) ? "NaN" : "infinite") + " " + axis[d] +
+                         std::string("has ") + (std::isnan(m.V(v, d)) ? "a NaN" : "an infinite") + " " + axis[d] +
                              " coordinate");
   const int nv0 = m.num_vertices();
   for (int f = 0; f < m.num_faces(); ++f)
@@ -65,6 +138,22 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
       if (m.F(f, j) < 0 || m.F(f, j) >= nv0)
         throw InputError(name + (name.empty() ? "" : ": ") + "face " + std::to_string(f),
                          "vertex index " + std::to_string(m.F(f, j)) + " out of range [0, " + std::to_string(nv0) + ")");
+
+  // --- size: products of lengths (areas squared, cross products of cross products) must neither
+  // overflow nor underflow; measured, the curving is unchanged from 1e-60 to 1e30 and goes wrong
+  // by 1e40 (spurious creases) and 1e80 (every face degenerate), so refuse rather than curve badly.
+  {
+    Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    for (int f = 0; f < m.num_faces(); ++f)  // the vertices faces use: unused ones are dropped below
+      for (int j = 0; j < 3; ++j) lo = lo.cwiseMin(m.V.row(m.F(f, j))), hi = hi.cwiseMax(m.V.row(m.F(f, j)));
+    const double diag = (hi - lo).norm();
+    if (diag > kMaxDiagonal || (diag > 0 && diag < kMinDiagonal)) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "the bounding box diagonal is %.3g, outside the %g to %g hocurve works in; rescale the mesh (change its units)",
+                    diag, kMinDiagonal, kMaxDiagonal);
+      throw InputError(name, buf);
+    }
+  }
 
   // --- degenerate and duplicate faces ---------------------------------------------------------
   {
@@ -105,7 +194,32 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
     if (m.F.rows() == 0) throw InputError(name, "no usable triangles (all degenerate or duplicate)");
   }
 
-  // --- unused vertices ------------------------------------------------------------------------
+  // --- zero-area faces: caps flipped away, flaps removed, the rest kept (removing them opens holes)
+  {
+    int first = -1;
+    for (int f = 0; f < m.num_faces(); ++f)
+      if (zero_area(m.V.row(m.F(f, 0)), m.V.row(m.F(f, 1)), m.V.row(m.F(f, 2)))) {
+        ++r.zero_area_faces;
+        if (first < 0) first = f;
+      }
+    if (r.zero_area_faces && opt.flip_zero_area_caps) r.zero_area_caps_flipped = flip_zero_area_caps(m);
+    if (r.zero_area_faces && opt.drop_zero_area_flaps) r.zero_area_flaps_removed = drop_zero_area_flaps(m);
+    if (r.zero_area_faces)
+      warn(plural(r.zero_area_faces, "zero-area face", "zero-area faces") + " (collinear corners), first: face " +
+           std::to_string(first) +
+           (r.zero_area_caps_flipped ? "; " + std::to_string(r.zero_area_caps_flipped) +
+                                           " closed T-junctions and were flipped into their neighbours (same surface)"
+                                     : std::string()) +
+           (r.zero_area_flaps_removed ? "; " + std::to_string(r.zero_area_flaps_removed) +
+                                            " hung on one edge or on none and were removed (same surface)"
+                                      : std::string()));
+    bool any_area = false;
+    for (int f = 0; f < m.num_faces() && !any_area; ++f)
+      any_area = !zero_area(m.V.row(m.F(f, 0)), m.V.row(m.F(f, 1)), m.V.row(m.F(f, 2)));
+    if (!any_area) throw InputError(name, "no usable triangles (every face has zero area: all corners collinear)");
+  }
+
+  // --- unused vertices (also those only removed faces used) -----------------------------------
   {
     std::vector<int> remap(m.num_vertices(), -1);
     for (int f = 0; f < m.num_faces(); ++f)
@@ -128,22 +242,6 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
 
   const int nf = m.num_faces(), nv = m.num_vertices();
 
-  // --- zero-area faces (kept: removing them would open holes) ----------------------------------
-  {
-    int first = -1;
-    for (int f = 0; f < nf; ++f) {
-      const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
-      const double l2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
-      // Relative test: |cross| = 2 area; collinear corners leave only rounding noise (~1e-16 l^2).
-      if ((b - a).cross(c - a).norm() <= 1e-14 * l2) {
-        ++r.zero_area_faces;
-        if (first < 0) first = f;
-      }
-    }
-    if (r.zero_area_faces)
-      warn(plural(r.zero_area_faces, "zero-area face", "zero-area faces") + " (collinear corners), first: face " +
-           std::to_string(first));
-  }
 
   // --- topology: boundary, non-manifold edges and vertices -------------------------------------
   const Topology T = build_topology(m.F, nv);

@@ -58,10 +58,23 @@ TEST_CASE("NaN and infinite coordinates are located") {
   refused(stl_ascii(m), "n.stl", {"line 5", "facet 0: vertex 1 has a NaN"});
   refused(off_text(m), "n.off", {"vertex 2 has a NaN"});
   m.V(2, 1) = std::numeric_limits<double>::infinity();
-  refused(obj_text(m), "n.obj", {"vertex 2 has a infinite y"});
+  refused(obj_text(m), "n.obj", {"vertex 2 has an infinite y"});
   Mesh direct = octahedron();
   direct.V(4, 2) = std::numeric_limits<double>::quiet_NaN();
   CHECK_THROWS_WITH_AS(validate_mesh(direct), "vertex 4: has a NaN z coordinate", InputError);
+}
+
+TEST_CASE("meshes too large or too small for double-precision geometry are refused") {
+  for (double scale : {1e31, 1e150, 1e-31, 1e-150}) {
+    Mesh m = octahedron();
+    m.V *= scale;
+    CHECK_THROWS_WITH_AS(validate_mesh(m), doctest::Contains("rescale the mesh"), InputError);
+  }
+  for (double scale : {1e29, 1e-29}) {
+    Mesh m = octahedron();
+    m.V *= scale;
+    CHECK_NOTHROW(validate_mesh(m));
+  }
 }
 
 TEST_CASE("out-of-range indices are located") {

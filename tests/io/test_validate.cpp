@@ -105,8 +105,10 @@ TEST_CASE("degenerate, duplicate and zero-area faces; unused vertices") {
   m.F.row(8) << 0, 0, 2;   // degenerate
   m.F.row(9) << 2, 4, 0;   // duplicate of face 0 (rotated)
   m.F.row(10) << 4, 2, 0;  // duplicate of face 0 (reversed)
-  m.F.row(11) << 0, 7, 1;  // zero area
-  const ValidateReport r = validate_mesh(m);
+  m.F.row(11) << 0, 7, 1;  // zero area (a flap on edge 0-1, kept here: see the flap test below)
+  ValidateOptions keep_flaps;
+  keep_flaps.drop_zero_area_flaps = false;
+  const ValidateReport r = validate_mesh(m, keep_flaps);
   CHECK(r.degenerate_faces == 1);
   CHECK(r.duplicate_faces == 2);
   CHECK(r.zero_area_faces == 1);
@@ -114,6 +116,63 @@ TEST_CASE("degenerate, duplicate and zero-area faces; unused vertices") {
   CHECK(m.num_faces() == 9);
   CHECK(m.num_vertices() == 7);
   CHECK(m.V.row(6) == Eigen::RowVector3d(0.5 * (1.5 - 1.25), 0.25, 0));
+}
+
+TEST_CASE("a zero-area cap closing a T-junction is flipped into its neighbour, same surface") {
+  // Unit square: face (0, 1, 2) on one side of the diagonal 0-2, the other side split at the
+  // diagonal's midpoint 4 and the T-junction closed by the zero-area cap (0, 2, 4).
+  Mesh m;
+  m.V.resize(5, 3);
+  m.V << 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0.5, 0.5, 0;
+  m.F.resize(4, 3);
+  m.F << 0, 1, 2, 0, 2, 4, 0, 4, 3, 4, 2, 3;
+  const ValidateReport r = validate_mesh(m);
+  CHECK(r.zero_area_faces == 1);
+  CHECK(r.zero_area_caps_flipped == 1);
+  CHECK(r.flipped_faces == 0);  // the new faces keep the orientation
+  CHECK(r.boundary_edges == 4);
+  REQUIRE(m.num_faces() == 4);
+  double area = 0;
+  for (int f = 0; f < 4; ++f) {
+    const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+    const double z = 0.5 * (b - a).cross(c - a).z();
+    CHECK(z > 0.1);  // no zero-area face left, all facing +z
+    area += z;
+  }
+  CHECK(area == doctest::Approx(1.0));
+  // With the flip turned off the mesh keeps its cap.
+  Mesh keep = m;
+  keep.F << 0, 1, 2, 0, 2, 4, 0, 4, 3, 4, 2, 3;
+  ValidateOptions no;
+  no.flip_zero_area_caps = false;
+  CHECK(validate_mesh(keep, no).zero_area_caps_flipped == 0);
+  CHECK(keep.F(1, 2) == 4);
+}
+
+TEST_CASE("zero-area flaps and lone collinear triangles are removed; all-collinear input is refused") {
+  Mesh m = iotest::octahedron();
+  const int nv = m.num_vertices(), nf = m.num_faces();
+  m.V.conservativeResize(nv + 4, 3);
+  m.V.row(nv) = 0.5 * (m.V.row(m.F(0, 0)) + m.V.row(m.F(0, 1)));  // flap on face 0's first edge
+  m.V.row(nv + 1) << 5, 0, 0;
+  m.V.row(nv + 2) << 6, 0, 0;
+  m.V.row(nv + 3) << 7, 0, 0;  // a lone collinear triangle far away
+  m.F.conservativeResize(nf + 2, 3);
+  m.F.row(nf) << m.F(0, 0), m.F(0, 1), nv;
+  m.F.row(nf + 1) << nv + 1, nv + 2, nv + 3;
+  const ValidateReport r = validate_mesh(m);
+  CHECK(r.zero_area_faces == 2);
+  CHECK(r.zero_area_flaps_removed == 2);
+  CHECK(r.nonmanifold_edges == 0);
+  CHECK(r.boundary_edges == 0);
+  CHECK(m.num_faces() == nf);
+  CHECK(m.num_vertices() == nv);
+  Mesh line;
+  line.V.resize(4, 3);
+  line.V << 0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0;
+  line.F.resize(3, 3);
+  line.F << 0, 1, 2, 1, 2, 3, 0, 1, 3;
+  CHECK_THROWS_WITH_AS(validate_mesh(line), doctest::Contains("every face has zero area"), InputError);
 }
 
 TEST_CASE("non-manifold edge, pinched vertex, open boundary, components") {
