@@ -60,8 +60,26 @@ TriangleGrid build_triangle_grid(const Mesh& m, double cells_per_face) {
   G.items.resize(G.start.back());
   std::vector<int> fill(G.start.begin(), G.start.end() - 1);
   for (int f = 0; f < nf; ++f) for_cells(f, [&](long long c) { G.items[fill[c]++] = f; });
+  G.boxes.resize(nf);
+  for (int f = 0; f < nf; ++f) {
+    Eigen::Vector3d a = m.V.row(m.F(f, 0)).transpose(), b = a;
+    for (int j = 1; j < 3; ++j) a = a.cwiseMin(m.V.row(m.F(f, j)).transpose()), b = b.cwiseMax(m.V.row(m.F(f, j)).transpose());
+    G.boxes[f] = {a[0], a[1], a[2], b[0], b[1], b[2]};
+  }
   return G;
 }
+
+namespace {
+/// Squared distance from x to the box [lo, hi].
+double box_distance2(const Eigen::Vector3d& x, const double* lo, const double* hi) {
+  double s = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double d = std::max({lo[k] - x[k], 0.0, x[k] - hi[k]});
+    s += d * d;
+  }
+  return s;
+}
+}  // namespace
 
 double grid_search(const TriangleGrid& G, const Eigen::Vector3d& x, double max_r, double stop_below, int* face) {
   const Mesh& m = *G.mesh;
@@ -80,8 +98,13 @@ double grid_search(const TriangleGrid& G, const Eigen::Vector3d& x, double max_r
         for (int i = c[0] - r; i <= c[0] + r; i += (edge_jk ? 1 : std::max(1, 2 * r))) {
           if (i < 0 || i >= G.dims[0]) continue;
           const long long id = (static_cast<long long>(k) * G.dims[1] + j) * G.dims[0] + i;
+          // Pruning only skips triangles that cannot come closer than `best`: the same result.
+          const double clo[3] = {G.lo[0] + i * G.cell, G.lo[1] + j * G.cell, G.lo[2] + k * G.cell};
+          const double chi[3] = {clo[0] + G.cell, clo[1] + G.cell, clo[2] + G.cell};
+          if (box_distance2(x, clo, chi) >= best * best) continue;
           for (int t = G.start[id]; t < G.start[id + 1]; ++t) {
             const int f = G.items[t];
+            if (box_distance2(x, G.boxes[f].data(), G.boxes[f].data() + 3) >= best * best) continue;
             Eigen::Vector3d bc;
             const Eigen::Vector3d q =
                 closest_point_on_triangle(x, m.V.row(m.F(f, 0)).transpose(), m.V.row(m.F(f, 1)).transpose(),

@@ -6,6 +6,7 @@
 #include "engine/highorder/high_order_mesh.hpp"
 
 #include <Eigen/Core>
+#include <array>
 #include <vector>
 
 namespace hocurve {
@@ -18,6 +19,9 @@ struct TriangleGrid {
   double cell = 1;
   Eigen::Vector3i dims = Eigen::Vector3i::Ones();
   std::vector<int> start, items;  ///< CSR: cell -> triangles overlapping it
+  /// Per triangle its bounding box (lo xyz, hi xyz): a triangle whose box is no closer than the
+  /// best distance so far is skipped without the exact test.
+  std::vector<std::array<double, 6>> boxes;
 };
 
 /// Builds the grid (about cells_per_face cells per triangle overall). Keep mesh alive.
