@@ -23,7 +23,7 @@ namespace {
 
 const std::vector<OptionSpec> kCoarsenOptions = {
     {"output", true, "output .msh file (required)", 'o'},
-    {"order", true, "element order 2..6 (default 4)"},
+    {"order", true, "element order 1..6 (default 4; 1: the straight decimated triangles)"},
     {"faces", true, "target number of coarse triangles (>= 4)"},
     {"ratio", true, "target fraction of the input's triangles, in (0, 1]"},
     {"nodes", true, "equispaced (default; what Gmsh's Lagrange elements assume) | lobatto"},
@@ -160,7 +160,7 @@ int run_coarsen(int argc, char** argv) {
   dopt.feature_angle_deg = a.get_double("feature-angle", dopt.feature_angle_deg, 0.0, 180.0);
   dopt.max_deviation = a.get_double("max-deviation", dopt.max_deviation, 0.0, 1.0);
   LiftOptions lopt;
-  lopt.order = static_cast<int>(a.get_int("order", 4, 2, 6));
+  lopt.order = static_cast<int>(a.get_int("order", 4, 1, 6));
   lopt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
   lopt.features = feature_options(dopt);
   lopt.long_edges.ratio = a.get_double("long-edge-ratio", lopt.long_edges.ratio, 0.0, 1e9);

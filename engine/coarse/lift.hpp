@@ -27,7 +27,7 @@
 namespace hocurve {
 
 struct LiftOptions {
-  int order = 4;                                        ///< 2..6
+  int order = 4;                                        ///< 1..6 (1: straight coarse triangles)
   NodeDistribution distribution = NodeDistribution::Equispaced;
   /// Feature detection on the dense mesh; set it as the decimation did (feature_options()).
   FeatureOptions features;

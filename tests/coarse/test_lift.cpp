@@ -149,6 +149,15 @@ TEST_CASE("orders 2 and 6 on the sphere: valid, conforming, better than straight
   }
 }
 
+TEST_CASE("order 1: the straight decimated triangles") {
+  const Case c = run(icosphere(4), 320, 1, sphere_distance);
+  CHECK(c.lift.mesh.order == 1);
+  CHECK(c.lift.mesh.edge_nodes.rows() == 0);
+  CHECK(c.lift.validity.invalid_after == 0);
+  CHECK(c.lift.faces == 320);
+  CHECK(c.curved == doctest::Approx(c.straight).epsilon(0.05));  // the decimation's own triangles
+}
+
 TEST_CASE("cube: feature curves and corners are kept, every node stays on the cube") {
   const Mesh fine = coarse_test::cube(12);
   DecimateOptions dopt;
@@ -595,7 +604,7 @@ TEST_CASE("deterministic: one thread and all threads give the same nodes") {
   CHECK((one - all).cwiseAbs().maxCoeff() == 0.0);
 }
 
-TEST_CASE("refusals: order outside 2..6, decimation without its map") {
+TEST_CASE("refusals: order outside 1..6, decimation without its map") {
   const Mesh fine = icosphere(2);
   DecimateOptions dopt;
   dopt.target_faces = 80;
@@ -603,7 +612,7 @@ TEST_CASE("refusals: order outside 2..6, decimation without its map") {
   LiftOptions lopt;
   lopt.order = 7;
   CHECK_THROWS_AS(lift_coarse(fine, D, lopt), UsageError);
-  lopt.order = 1;
+  lopt.order = 0;
   CHECK_THROWS_AS(lift_coarse(fine, D, lopt), UsageError);
   lopt.order = 3;
   dopt.build_map = false;
