@@ -224,7 +224,7 @@ def main(argv):
     for args, code, what in [(["--order", "4"], 2, "neither --faces nor --ratio"),
                              (["--order", "4", "--faces", "10", "--ratio", "0.1"], 2, "both --faces and --ratio"),
                              (["--order", "7", "--faces", "100"], 2, "order 7"),
-                             (["--order", "1", "--faces", "100"], 2, "order 1"),
+                             (["--order", "0", "--faces", "100"], 2, "order 0"),
                              (["--order", "4", "--faces", "100", "--max-deviation", "-0.1"], 2, "negative deviation"),
                              (["--order", "4", "--faces", "100", "--tolerance", "-0.1"], 2, "negative tolerance"),
                              (["--order", "4", "--faces", "100", "--max-faces", "200"], 2, "--max-faces alone")]:
