@@ -353,7 +353,9 @@ TEST_CASE("cone apex: no fit reaches across it, P4 far below linear") {
   // A smooth fit through the apex rounds it off (P4 was 1x linear at height 2, 7x further from
   // the cone than linear at height 0.5, and 9x at 0.2; now 30x, 78x, 78x below: the flat fan
   // triangles' face nodes, blended partly from the apex's straight triangles, are what is left).
-  for (double height : {2.0, 0.5, 0.2}) {
+  // Heights 0.1 and 0.05 (half-angles 84 and 87 degrees, defects 1.8 and 0.45 degrees: blunt
+  // cones) were 5.7x worse than linear before ConeOptions::min_blunt_defect_deg; now 78x below.
+  for (double height : {2.0, 0.5, 0.2, 0.1, 0.05}) {
     const Mesh m = cone_mesh(20, 64, 1.0, height);
     const std::string name = "cone, height " + std::to_string(height);
     Case c = run(name.c_str(), m, [&](const Eigen::Vector3d& x) { return cone_distance(x, 1.0, height); });
