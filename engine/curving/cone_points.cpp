@@ -94,13 +94,9 @@ std::vector<char> cone_points(const Mesh& mesh, const Topology& T, const std::ve
       if (closed[u]) k.push_back(std::abs(defect[u]) / area[u]);
     }
     if (k.empty()) continue;  // every neighbour on a feature: a corner's business, not a cone's
-    const auto mid = k.begin() + static_cast<long>(k.size() / 2);
-    std::nth_element(k.begin(), mid, k.end());
-    cone[v] = std::abs(defect[v]) / area[v] > opt.curvature_ratio * *mid;
-    // A blunt cone's apex stands out from every neighbour, not only from most of them (the vertices
-    // of a weak crease share theirs along it; a lone spike's neighbours make up for it).
-    if (cone[v] && std::abs(defect[v]) <= min_defect)
-      cone[v] = std::abs(defect[v]) / area[v] > opt.curvature_ratio * *std::max_element(k.begin(), k.end());
+    // 8x every neighbour, not only most of them: the vertices of a weak crease share theirs along
+    // it, a lone spike's neighbours make up for it, a small blend between fillets spreads it.
+    cone[v] = std::abs(defect[v]) / area[v] > opt.curvature_ratio * *std::max_element(k.begin(), k.end());
   }
   return cone;
 }

@@ -149,6 +149,17 @@ TEST_CASE("orders 2 and 6 on the sphere: valid, conforming, better than straight
   }
 }
 
+TEST_CASE("cone 4%: the apex stays a vertex, the coarse P4 closer to the cone than the dense input") {
+  const Mesh fine = cone_mesh(20, 64, 1.0, 0.5);
+  const int target = static_cast<int>(0.04 * fine.num_faces());
+  const Case c = run(fine, target, 4, [](const Eigen::Vector3d& x) { return cone_distance(x, 1.0, 0.5); });
+  bool apex = false;
+  for (Eigen::Index v = 0; v < c.lift.mesh.V.rows(); ++v) apex |= (c.lift.mesh.V.row(v) - Eigen::RowVector3d(0, 0, 0.5)).norm() < 1e-12;
+  CHECK(apex);  // a cone point is a corner of the decimation (it was collapsed away: 8.3e-4 off the cone)
+  CHECK(c.curved <= c.dense);
+  CHECK(c.lift.validity.invalid_after == 0);
+}
+
 TEST_CASE("order 1: the straight decimated triangles") {
   const Case c = run(icosphere(4), 320, 1, sphere_distance);
   CHECK(c.lift.mesh.order == 1);
