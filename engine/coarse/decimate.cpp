@@ -88,9 +88,6 @@ FeatureMarks mark_features(const Mesh& m, const Topology& T, const DecimateOptio
       if (fm.edge[e])
         for (int j = 0; j < 2; ++j) fm.vertex[T.E(e, j)] = 1, ++valence[T.E(e, j)];
     for (int v = 0; v < nv; ++v) fm.corner[v] = fm.vertex[v] && (fm.corner[v] || valence[v] != 2);
-    // A cone's apex stays as a pinned vertex: collapsed away, the coarse surface rounds it off.
-    for (size_t v = 0; v < f.vertex_cone.size(); ++v)
-      if (f.vertex_cone[v]) fm.vertex[v] = fm.corner[v] = 1;
     return fm;
   }
   fm.edge.assign(T.num_edges(), 0);

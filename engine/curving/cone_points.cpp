@@ -10,40 +10,45 @@ namespace hocurve {
 namespace {
 
 /// Whether the surface around v descends from it along straight rulings (a cone) rather than
-/// curving away (a smooth point): the mean sine of elevation over the fan normal n of the
-/// directions to the 2-ring vertices, over that of the 1-ring ones. On a cone each ruling keeps
-/// its slope (ratio ~1); on a smooth surface the elevation grows with the distance (ratio ~ the
-/// 2-ring's distance over the 1-ring's, ~2); a lone spike drops as far to both (~1/2). True when the
-/// ratio is nearer 1 than both.
-bool descends_like_cone(const Mesh& mesh, const Topology& T, int v, const Eigen::Vector3d& n, std::vector<int>& ring) {
+/// curving away (a smooth point) or dropping to a plane (a lone spike of noise). Each 2-ring vertex
+/// w is paired with the 1-ring vertex u nearest its direction; with s the sine of elevation over the
+/// fan normal n and r the distance, s_w / s_u = (r_w / r_u)^e: e ~ 0 on a cone (a ruling keeps its
+/// slope), ~1 on a smooth surface (the elevation grows with the distance), ~-1 for a spike (the same
+/// drop at any distance). True when the median e is nearer 0 than both.
+bool descends_like_cone(const Mesh& mesh, const Topology& T, int v, const Eigen::Vector3d& n, std::vector<int>& ring,
+                        std::vector<double>& exps) {
   const Eigen::Vector3d o = mesh.V.row(v).transpose();
   ring.clear();
   auto [eb, ee] = T.edges_of(v);
   for (const int* e = eb; e != ee; ++e) ring.push_back(T.other(*e, v));
-  const size_t n1 = ring.size();
-  for (size_t i = 0; i < n1; ++i)
+  const long n1 = static_cast<long>(ring.size());
+  for (long i = 0; i < n1; ++i)
     for (auto [fb, fe] = T.edges_of(ring[i]); fb != fe; ++fb) ring.push_back(T.other(*fb, ring[i]));
-  std::sort(ring.begin() + static_cast<long>(n1), ring.end());
-  ring.erase(std::unique(ring.begin() + static_cast<long>(n1), ring.end()), ring.end());
-  double s[2] = {0, 0}, r[2] = {0, 0};
-  int c[2] = {0, 0};
-  for (size_t i = 0; i < ring.size(); ++i) {
-    const int u = ring[i];
-    if (u == v || (i >= n1 && std::find(ring.begin(), ring.begin() + static_cast<long>(n1), u) != ring.begin() + static_cast<long>(n1)))
-      continue;
-    const Eigen::Vector3d d = mesh.V.row(u).transpose() - o;
-    const double len = d.norm();
-    if (!(len > 0)) continue;
-    const int k = i < n1 ? 0 : 1;
-    s[k] += d.dot(n) / len, r[k] += len, ++c[k];
+  std::sort(ring.begin() + n1, ring.end());
+  ring.erase(std::unique(ring.begin() + n1, ring.end()), ring.end());
+  auto unit_tangent = [&](const Eigen::Vector3d& d) { return (d - d.dot(n) * n).normalized(); };
+  exps.clear();
+  for (size_t i = static_cast<size_t>(n1); i < ring.size(); ++i) {
+    const int w = ring[i];
+    if (w == v || std::find(ring.begin(), ring.begin() + n1, w) != ring.begin() + n1) continue;
+    const Eigen::Vector3d dw = mesh.V.row(w).transpose() - o;
+    const Eigen::Vector3d tw = unit_tangent(dw);
+    int best = -1;
+    double best_cos = -2;
+    for (long k = 0; k < n1; ++k) {
+      const double c = unit_tangent(mesh.V.row(ring[k]).transpose() - o).dot(tw);
+      if (c > best_cos) best_cos = c, best = ring[k];
+    }
+    if (best < 0 || !(best_cos > 0.9)) continue;
+    const Eigen::Vector3d du = mesh.V.row(best).transpose() - o;
+    const double rw = dw.norm(), ru = du.norm(), sw = dw.dot(n) / rw, su = du.dot(n) / ru;
+    if (!(rw > 1.3 * ru) || !(sw * su > 0)) continue;
+    exps.push_back(std::log(sw / su) / std::log(rw / ru));
   }
-  if (c[0] == 0 || c[1] == 0) return false;
-  const double s1 = s[0] / c[0], s2 = s[1] / c[1], rho = (r[1] / c[1]) / (r[0] / c[0]);
-  if (!(std::abs(s1) > 0) || s2 / s1 <= 0) return false;
-  // A single vertex pushed out of a smooth surface (scan noise) drops the same height to both
-  // rings: its ratio is ~1 / rho. Nearer 1 than both is a cone.
-  const double t = s2 / s1;
-  return t < 0.5 * (1 + rho) && t > 0.5 * (1 + 1 / rho);
+  if (exps.size() < 3) return false;
+  const auto mid = exps.begin() + static_cast<long>(exps.size() / 2);
+  std::nth_element(exps.begin(), mid, exps.end());
+  return std::abs(*mid) < 0.5;
 }
 
 }  // namespace
@@ -82,10 +87,11 @@ std::vector<char> cone_points(const Mesh& mesh, const Topology& T, const std::ve
   std::vector<char> cone(nv, 0);
   std::vector<double> k;
   std::vector<int> ring;
+  std::vector<double> exps;
   for (int v = 0; v < nv; ++v) {
     if (!closed[v] || std::abs(defect[v]) <= min_blunt) continue;
     if (std::abs(defect[v]) <= min_defect &&
-        !(normal[v].norm() > 0 && descends_like_cone(mesh, T, v, normal[v].normalized(), ring)))
+        !(normal[v].norm() > 0 && descends_like_cone(mesh, T, v, normal[v].normalized(), ring, exps)))
       continue;
     k.clear();
     auto [eb, ee] = T.edges_of(v);

@@ -149,14 +149,14 @@ TEST_CASE("orders 2 and 6 on the sphere: valid, conforming, better than straight
   }
 }
 
-TEST_CASE("cone 4%: the apex stays a vertex, the coarse P4 closer to the cone than the dense input") {
+TEST_CASE("cone 4%: valid, closer to the cone than the straight coarse mesh") {
+  // The apex is collapsed away (a cone point is not pinned: on the scans, whose cone points are
+  // mostly noise, pinning them cost skull from 3% 1.41% -> 1.85%); kept, it gave 4.8e-4.
   const Mesh fine = cone_mesh(20, 64, 1.0, 0.5);
   const int target = static_cast<int>(0.04 * fine.num_faces());
   const Case c = run(fine, target, 4, [](const Eigen::Vector3d& x) { return cone_distance(x, 1.0, 0.5); });
-  bool apex = false;
-  for (Eigen::Index v = 0; v < c.lift.mesh.V.rows(); ++v) apex |= (c.lift.mesh.V.row(v) - Eigen::RowVector3d(0, 0, 0.5)).norm() < 1e-12;
-  CHECK(apex);  // a cone point is a corner of the decimation (it was collapsed away: 8.3e-4 off the cone)
-  CHECK(c.curved <= c.dense);
+  CHECK(c.curved * 4 <= c.straight);
+  CHECK(c.curved <= 2 * c.dense);
   CHECK(c.lift.validity.invalid_after == 0);
 }
 
