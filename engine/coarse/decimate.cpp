@@ -477,7 +477,7 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
   const auto t0 = Clock::now();
   DecimateResult R;
   const int nv = fine.num_vertices(), nf = fine.num_faces();
-  if (nf < 4) throw InputError("decimate", "the mesh has " + std::to_string(nf) + " faces, at least 4 are needed");
+  // Fewer than 4 faces: no collapse is possible (a closed mesh needs 4); the result is the input.
   if (opt.target_faces <= 0 && !(opt.target_ratio > 0 && opt.target_ratio <= 1))
     throw UsageError("decimate: target_ratio must be in (0,1], got " + std::to_string(opt.target_ratio));
   R.target_faces = opt.target_faces > 0 ? opt.target_faces

@@ -246,6 +246,20 @@ TEST_CASE("fewest faces keeping the features: cube 12, capped cylinder 8, sphere
   CHECK(fewest(two) == 8);
 }
 
+TEST_CASE("one to three faces: nothing to collapse, the input comes back with its identity map") {
+  Mesh m;
+  m.V.resize(4, 3);
+  m.V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0.2;
+  m.F.resize(2, 3);
+  m.F << 0, 1, 2, 1, 3, 2;
+  DecimateOptions opt;
+  opt.target_ratio = 0.1;
+  const DecimateResult D = decimate(m, opt);
+  CHECK(D.coarse.num_faces() == 2);
+  CHECK(D.collapses == 0);
+  CHECK(D.coarse.V == m.V);
+}
+
 TEST_CASE("non-manifold input is refused with InputError") {
   Mesh m = coarse_test::icosphere(1);
   Mesh bad = m;
