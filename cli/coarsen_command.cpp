@@ -36,6 +36,7 @@ const std::vector<OptionSpec> kCoarsenOptions = {
     {"tolerance", true, "then split edges where the curved mesh is further than F x diagonal from the input (default 0: off)"},
     {"max-faces", true, "with --tolerance: never more coarse triangles than this (default: the input's count)"},
     {"long-edge-ratio", true, "dense edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
+    {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0: only invalid ones; e.g. 0.1)"},
     {"progress", false, "print progress as JSON lines on stdout"},
     {"help", false, "show this help", 'h'},
 };
@@ -45,7 +46,7 @@ const char* kCoarsenUsage =
     "                       [--nodes equispaced|lobatto] [--format msh41|msh22] [--binary]\n"
     "                       [--stats STATS.json] [--threads N] [--feature-angle DEG]\n"
     "                       [--max-deviation F] [--tolerance F [--max-faces N]]\n"
-    "                       [--long-edge-ratio R] [--progress]\n"
+    "                       [--long-edge-ratio R] [--min-jacobian Q] [--progress]\n"
     "Decimates a linear triangle surface mesh to N triangles (or R x its count), keeping feature\n"
     "curves, and curves the coarse triangles to order P so that they stay on the dense surface.\n"
     "With --tolerance, elements further than F x the bounding-box diagonal from the input (both\n"
@@ -114,6 +115,8 @@ nlohmann::json lift_json(const LiftResult& l) {
             {"slid_clusters", l.slid_clusters},
             {"invalid_before_repair", v.invalid_before},
             {"repaired", v.repaired},
+            {"below_min_jacobian", v.below_floor_before},
+            {"min_jacobian_repaired", v.quality_repaired},
             {"invalid_after", v.invalid_after},
             {"degenerate_input", v.degenerate_input},
             {"min_scaled_jacobian", v.min_scaled_jacobian}}},
@@ -164,6 +167,7 @@ int run_coarsen(int argc, char** argv) {
   lopt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
   lopt.features = feature_options(dopt);
   lopt.long_edges.ratio = a.get_double("long-edge-ratio", lopt.long_edges.ratio, 0.0, 1e9);
+  lopt.validity.quality_floor = a.get_double("min-jacobian", 0.0, 0.0, 0.9);
   RefineOptions ropt;
   ropt.tolerance = a.get_double("tolerance", 0.0, 0.0, 1.0);
   ropt.max_faces = static_cast<int>(a.get_int("max-faces", 0, 4, 100000000));

@@ -51,6 +51,8 @@ nlohmann::json stats_json(const CurveResult& r) {
   j["validity"] = {{"checked", V.checked},
                    {"invalid_before", V.invalid_before},
                    {"repaired", V.repaired},
+                   {"below_min_jacobian", V.below_floor_before},
+                   {"min_jacobian_repaired", V.quality_repaired},
                    {"invalid_after", V.invalid_after},
                    {"degenerate_input", V.degenerate_input},
                    {"min_scaled_jacobian", V.min_scaled_jacobian},

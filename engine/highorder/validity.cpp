@@ -31,9 +31,9 @@ void check_options(const ValidityOptions& opt) {
     throw UsageError("validity: shrink " + std::to_string(opt.shrink) + " must be in (0, 1)");
   if (opt.max_shrink_steps < 0)
     throw UsageError("validity: max_shrink_steps " + std::to_string(opt.max_shrink_steps) + " must be >= 0");
-  if (!(opt.min_scaled_jacobian < 1))
-    throw UsageError("validity: min_scaled_jacobian " + std::to_string(opt.min_scaled_jacobian) +
-                     " must be < 1 (straight elements have 1)");
+  if (!(opt.min_scaled_jacobian < 1) || !(opt.quality_floor < 1))
+    throw UsageError("validity: min_scaled_jacobian " + std::to_string(opt.min_scaled_jacobian) + " and quality_floor " +
+                     std::to_string(opt.quality_floor) + " must be < 1 (straight elements have 1)");
 }
 
 // Scratch buffers of one thread; sized for one basis.
@@ -343,11 +343,22 @@ ValidityReport check_validity(const HighOrderMesh& hm, const ValidityOptions& op
   ValidityReport rep;
   fill_report(ev, rep);
   rep.invalid_before = rep.invalid_after;
+  if (opt.quality_floor > opt.min_scaled_jacobian) {
+    // Bounds are only refined until they clear the threshold: against the floor they are tighter.
+    ValidityOptions q = opt;
+    q.min_scaled_jacobian = opt.quality_floor;
+    std::vector<ElementValidity> eq = check_elements(hm, q);
+    ValidityReport rq;
+    fill_report(eq, rq);
+    rep.min_scaled_jacobian = std::max(rep.min_scaled_jacobian, rq.min_scaled_jacobian);
+    rep.below_floor_before = rq.invalid_after - rq.degenerate_input;
+  }
   return rep;
 }
 
-ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt) {
-  check_options(opt);
+namespace {
+/// One repair pass at opt.min_scaled_jacobian (what repair_validity documents, without the floor).
+ValidityReport repair_pass(HighOrderMesh& hm, const ValidityOptions& opt) {
   check_mesh_shape(hm, "repair_validity");
   const int p = hm.order, npe = p - 1, npf = hm.nodes_per_face();
   const int nf = static_cast<int>(hm.F.rows()), ne = static_cast<int>(hm.E.rows());
@@ -454,6 +465,24 @@ ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt) {
     if (moved) ++rep.repaired;
   }
   return rep;
+}
+}  // namespace
+
+ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt) {
+  check_options(opt);
+  ValidityReport rep = repair_pass(hm, opt);
+  if (!(opt.quality_floor > opt.min_scaled_jacobian) || hm.order == 1) return rep;
+  // Then the valid elements that come near folding (min J / J_straight below the floor) go the
+  // same way toward straight until they clear it; the report keeps the validity threshold.
+  ValidityOptions q = opt;
+  q.min_scaled_jacobian = opt.quality_floor;
+  const ValidityReport rq = repair_pass(hm, q);
+  ValidityReport out = check_validity(hm, opt);
+  out.invalid_before = rep.invalid_before;
+  out.repaired = rep.repaired;
+  out.below_floor_before = rq.invalid_before - rq.degenerate_input;
+  out.quality_repaired = rq.repaired;
+  return out;
 }
 
 }  // namespace hocurve

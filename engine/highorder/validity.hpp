@@ -16,6 +16,10 @@ struct ValidityOptions {
   double min_scaled_jacobian = 0.0;  ///< an element is valid when min J / J_straight exceeds this (strictly)
   double shrink = 0.8;          ///< repair: displacement factor per step
   int max_shrink_steps = 30;    ///< repair: after this the element's nodes go fully straight
+  /// repair: valid elements whose min J / J_straight is at or below this also move toward straight
+  /// until they clear it (0: only invalid ones). Elements near folding (1e-4 on CAD exports and
+  /// coarse meshes) are valid but poor for solvers; Gmsh's high-order optimizer aims at 0.1.
+  double quality_floor = 0.0;
 };
 
 /// Per-element result: certified lower bound of J/J_straight over the element and the verdict.
@@ -72,6 +76,8 @@ struct ValidityReport {
   long long checked = 0;
   long long invalid_before = 0;   ///< elements invalid before repair
   long long repaired = 0;         ///< elements (or neighbours) whose nodes were pulled back
+  long long below_floor_before = 0;  ///< valid elements at or below quality_floor before its pass
+  long long quality_repaired = 0;    ///< elements moved by the quality_floor pass
   /// Still invalid after repair (check_validity: = invalid_before). 0 unless the input is degenerate
   /// or straight elements themselves miss min_scaled_jacobian (e.g. Lobatto nodes read as equispaced).
   long long invalid_after = 0;

@@ -389,6 +389,24 @@ TEST_CASE("real inputs (scan, CAD STL): valid, watertight, bounded deviation, fi
   }
 }
 
+TEST_CASE("a quality floor: no element comes nearer folding than min J / J_straight = 0.1") {
+  for (const char* name : {"t13_data.stl", "ktoolcav.stl"}) {
+    const ReadResult rr = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/" + name);
+    CurveOptions o;
+    const CurveResult plain = curve_mesh(rr.mesh, o);
+    o.validity.quality_floor = 0.1;
+    const CurveResult r = curve_mesh(rr.mesh, o);
+    INFO(name);
+    CHECK(plain.validity.min_scaled_jacobian < 0.01);  // valid, but near folding without the floor
+    CHECK(r.validity.below_floor_before > 0);
+    CHECK(r.validity.quality_repaired >= r.validity.below_floor_before);
+    CHECK(r.validity.invalid_after == 0);
+    CHECK(r.validity.min_scaled_jacobian > 0.1);
+    CHECK(watertight_gap(r.mesh) < 1e-12);
+    CHECK(r.deviation.max_relative <= plain.deviation.max_relative + 1e-12);  // toward straight: toward the input
+  }
+}
+
 TEST_CASE("flat CAD faces between fillets stay flat") {
   // t13_data: 48 x 42 mm flat rectangles (two exactly coplanar triangles each) bordered by 2 mm
   // fillet strips. The corner fits follow the fillets and bent them 8 mm out of their plane.

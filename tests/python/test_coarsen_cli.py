@@ -219,6 +219,17 @@ def main(argv):
               % (d["faces"], n_el, cap, rf["splits"], 100 * rf["deviation_before_relative"],
                  100 * rf["deviation_after_relative"]))
 
+    # --min-jacobian: no coarse element nearer folding than the floor (certified Bezier bound).
+    o, st = os.path.join(work, "bq.msh"), os.path.join(work, "bq.json")
+    r = subprocess.run([hoc, "coarsen", bunny, "-o", o, "--order", "4", "--ratio", "0.04", "--min-jacobian", "0.1",
+                        "--stats", st], capture_output=True, text=True, timeout=300)
+    check(r.returncode == 0, "bunny 4%%, --min-jacobian 0.1: exit 0 (%s)" % r.stderr.strip())
+    if r.returncode == 0:
+        v = json.load(open(st))["lifting"]["validity"]
+        check(v["invalid_after"] == 0 and v["min_scaled_jacobian"] > 0.1 and v["below_min_jacobian"] > 0,
+              "--min-jacobian 0.1: %d elements below it moved, min J/J_straight %.3f" % (
+                  v["below_min_jacobian"], v["min_scaled_jacobian"]))
+
     # Refusals: exit 2 (usage) and 3 (input), no output file left behind.
     bad = os.path.join(work, "bad.msh")
     for args, code, what in [(["--order", "4"], 2, "neither --faces nor --ratio"),
