@@ -81,7 +81,8 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
     throw ApiError(400, "invalid-options", "options must be a JSON object, got " + std::string(raw.type_name()));
   static const std::vector<std::string> known = {"mode",          "order",     "nodes",         "format",
                                                  "binary",        "faces",     "ratio",         "max_deviation",
-                                                 "tolerance",     "max_faces", "feature_angle", "long_edge_ratio"};
+                                                 "tolerance",     "max_faces", "feature_angle", "long_edge_ratio",
+                                                 "min_jacobian"};
   Errors err;
   for (auto& [k, v] : raw.items())
     if (std::find(known.begin(), known.end(), k) == known.end()) {
@@ -123,6 +124,7 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
   // Both modes: the feature threshold and the long-edge rule of the dense fits.
   number("feature_angle", [](double x) { return x >= 0 && x <= 180; }, "a number of degrees in [0, 180]");
   number("long_edge_ratio", [](double x) { return x >= 0 && x <= 1e9; }, "a number >= 0 (0: off)");
+  number("min_jacobian", [](double x) { return x >= 0 && x <= 0.9; }, "a number in [0, 0.9] (0: off)");
 
   if (mode == "coarsen") {
     for (const char* k : {"nodes", "format", "binary"})
@@ -184,6 +186,7 @@ std::vector<std::string> worker_argv(const std::string& program, const nlohmann:
   }
   if (o.contains("feature_angle")) a.insert(a.end(), {"--feature-angle", number("feature_angle")});
   if (o.contains("long_edge_ratio")) a.insert(a.end(), {"--long-edge-ratio", number("long_edge_ratio")});
+  if (o.contains("min_jacobian")) a.insert(a.end(), {"--min-jacobian", number("min_jacobian")});
   a.insert(a.end(), {"--stats", stats, "--progress"});
   return a;
 }

@@ -230,6 +230,7 @@ def main(argv=None):
     s.add_argument("--max-faces", type=int, dest="max_faces")
     s.add_argument("--feature-angle", type=float, dest="feature_angle")
     s.add_argument("--long-edge-ratio", type=float, dest="long_edge_ratio")
+    s.add_argument("--min-jacobian", type=float, dest="min_jacobian")
     s.add_argument("--idempotency-key")
     s.add_argument("--wait", action="store_true", help="wait with a progress bar")
     s.add_argument("-o", "--output", help="with --wait: download the result here")
@@ -253,7 +254,8 @@ def main(argv=None):
     try:
         if args.cmd == "submit":
             opts = {k: getattr(args, k) for k in ("mode", "order", "nodes", "format", "faces", "ratio", "max_deviation",
-                                                  "tolerance", "max_faces", "feature_angle", "long_edge_ratio")
+                                                  "tolerance", "max_faces", "feature_angle", "long_edge_ratio",
+                                                  "min_jacobian")
                     if getattr(args, k) is not None}
             if args.binary:
                 opts["binary"] = True

@@ -116,6 +116,12 @@ TEST_CASE("worker command line follows the CLI contract") {
   CHECK_THROWS_AS(normalise_options({{"feature_angle", 181}}), ApiError);
   CHECK_THROWS_AS(normalise_options({{"feature_angle", "sharp"}}), ApiError);
   CHECK_THROWS_AS(normalise_options({{"long_edge_ratio", -1}}), ApiError);
+  // The quality floor, in both modes.
+  a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"faces", 50}, {"min_jacobian", "0.1"}}), "i", "o", "s", 1);
+  CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "4", "--faces", "50",
+                                      "--min-jacobian", "0.10000000000000001", "--stats", "s", "--progress"});
+  CHECK_THROWS_AS(normalise_options({{"min_jacobian", 1}}), ApiError);
+  CHECK_THROWS_AS(normalise_options({{"min_jacobian", -0.1}}), ApiError);
 }
 
 TEST_CASE("format sniffing and the upload-time binary STL count check") {
