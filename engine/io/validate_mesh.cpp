@@ -39,6 +39,10 @@ bool zero_area(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::
   return (b - a).cross(c - a).norm() <= kZeroArea * l2;
 }
 
+bool face_zero_area(const Mesh& m, int f) {
+  return zero_area(m.V.row(m.F(f, 0)), m.V.row(m.F(f, 1)), m.V.row(m.F(f, 2)));
+}
+
 /// Removes zero-area caps: a face (a, b, m) whose m lies inside its longest edge ab closes a
 /// T-junction; with the face g = (a, b, x) across ab it is replaced by g split at m, (a, m, x)
 /// and (m, b, x) (an edge flip). The two new faces cover exactly g, so the surface is unchanged,
@@ -52,26 +56,21 @@ long long flip_zero_area_caps(Mesh& m) {
     long long before = flipped;
     for (int f = 0; f < m.num_faces(); ++f) {
       if (touched[f]) continue;
+      if (!face_zero_area(m, f)) continue;
       const Eigen::Vector3d x0 = m.V.row(m.F(f, 0)), x1 = m.V.row(m.F(f, 1)), x2 = m.V.row(m.F(f, 2));
-      if (!zero_area(x0, x1, x2)) continue;
       const double l[3] = {(x2 - x1).squaredNorm(), (x0 - x2).squaredNorm(), (x1 - x0).squaredNorm()};
       const int j = static_cast<int>(std::max_element(l, l + 3) - l);  // corner opposite the longest edge
       const int mid = m.F(f, j), a = m.F(f, (j + 1) % 3), b = m.F(f, (j + 2) % 3);
       const Eigen::Vector3d pa = m.V.row(a), pb = m.V.row(b), pm = m.V.row(mid);
       const double t = (pm - pa).dot(pb - pa) / (pb - pa).squaredNorm();
       if (!(t > 1e-6 && t < 1 - 1e-6)) continue;
-      int edge = -1;
-      for (int k = 0; k < 3; ++k) {
-        const int ek = T.FE(f, k);
-        if ((T.E(ek, 0) == a && T.E(ek, 1) == b) || (T.E(ek, 0) == b && T.E(ek, 1) == a)) edge = ek;
-      }
-      if (edge < 0 || T.edge_faces[edge].size() != 2) continue;
+      const int edge = T.FE(f, (j + 1) % 3);  // a-b: FE(f, k) joins corners k and k + 1
+      if (T.edge_faces[edge].size() != 2) continue;
       const int g = T.edge_faces[edge][0] == f ? T.edge_faces[edge][1] : T.edge_faces[edge][0];
       if (touched[g]) continue;
-      int gp = 0;  // g = (p, q, x) in its own cyclic order with {p, q} = {a, b}
-      while (gp < 3 && m.F(g, (gp + 2) % 3) != (m.F(g, 0) + m.F(g, 1) + m.F(g, 2)) - a - b) ++gp;
-      if (gp == 3) continue;
-      const int p = m.F(g, gp), q = m.F(g, (gp + 1) % 3), x = m.F(g, (gp + 2) % 3);
+      int xi = 0;  // g = (p, q, x) in its own cyclic order with {p, q} = {a, b}
+      while (m.F(g, xi) == a || m.F(g, xi) == b) ++xi;
+      const int x = m.F(g, xi), p = m.F(g, (xi + 1) % 3), q = m.F(g, (xi + 2) % 3);
       bool exists = false;
       for (auto [eb, ee] = T.edges_of(mid); eb != ee; ++eb) exists |= T.E(*eb, 0) == x || T.E(*eb, 1) == x;
       const Eigen::Vector3d px = m.V.row(x);
@@ -95,7 +94,7 @@ long long drop_zero_area_flaps(Mesh& m) {
   std::vector<char> keep(m.num_faces(), 1);
   long long dropped = 0;
   for (int f = 0; f < m.num_faces(); ++f) {
-    if (!zero_area(m.V.row(m.F(f, 0)), m.V.row(m.F(f, 1)), m.V.row(m.F(f, 2)))) continue;
+    if (!face_zero_area(m, f)) continue;
     int shared = 0;
     for (int k = 0; k < 3; ++k) shared += T.edge_faces[T.FE(f, k)].size() > 1;
     if (shared <= 1) keep[f] = 0, ++dropped;
@@ -198,7 +197,7 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
   {
     int first = -1;
     for (int f = 0; f < m.num_faces(); ++f)
-      if (zero_area(m.V.row(m.F(f, 0)), m.V.row(m.F(f, 1)), m.V.row(m.F(f, 2)))) {
+      if (face_zero_area(m, f)) {
         ++r.zero_area_faces;
         if (first < 0) first = f;
       }
@@ -213,9 +212,8 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
            (r.zero_area_flaps_removed ? "; " + std::to_string(r.zero_area_flaps_removed) +
                                             " hung on one edge or on none and were removed (same surface)"
                                       : std::string()));
-    bool any_area = false;
-    for (int f = 0; f < m.num_faces() && !any_area; ++f)
-      any_area = !zero_area(m.V.row(m.F(f, 0)), m.V.row(m.F(f, 1)), m.V.row(m.F(f, 2)));
+    bool any_area = r.zero_area_faces == 0;
+    for (int f = 0; f < m.num_faces() && !any_area; ++f) any_area = !face_zero_area(m, f);
     if (!any_area) throw InputError(name, "no usable triangles (every face has zero area: all corners collinear)");
   }
 
