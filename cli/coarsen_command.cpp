@@ -36,7 +36,7 @@ const std::vector<OptionSpec> kCoarsenOptions = {
     {"tolerance", true, "then split edges where the curved mesh is further than F x diagonal from the input (default 0: off)"},
     {"max-faces", true, "with --tolerance: never more coarse triangles than this (default: the input's count)"},
     {"long-edge-ratio", true, "dense edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
-    {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0: only invalid ones; e.g. 0.1)"},
+    {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0.01; 0: only invalid ones; e.g. 0.1)"},
     {"progress", false, "print progress as JSON lines on stdout"},
     {"help", false, "show this help", 'h'},
 };
@@ -167,7 +167,7 @@ int run_coarsen(int argc, char** argv) {
   lopt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
   lopt.features = feature_options(dopt);
   lopt.long_edges.ratio = a.get_double("long-edge-ratio", lopt.long_edges.ratio, 0.0, 1e9);
-  lopt.validity.quality_floor = a.get_double("min-jacobian", 0.0, 0.0, 0.9);
+  lopt.validity.quality_floor = a.get_double("min-jacobian", lopt.validity.quality_floor, 0.0, 0.9);
   RefineOptions ropt;
   ropt.tolerance = a.get_double("tolerance", 0.0, 0.0, 1.0);
   ropt.max_faces = static_cast<int>(a.get_int("max-faces", 0, 4, 100000000));

@@ -31,7 +31,7 @@ const std::vector<OptionSpec> kCurveOptions = {
     {"long-edge-ratio", true, "edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
     {"support", true, "auto (default: when the triangulation is non-uniform) | on | off"},
     {"seed", true, "seed of the random support samples (default 1)"},
-    {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0: only invalid ones; e.g. 0.1)"},
+    {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0.01; 0: only invalid ones; e.g. 0.1)"},
     {"progress", false, "print progress as JSON lines on stdout"},
     {"help", false, "show this help", 'h'},
 };
@@ -61,7 +61,7 @@ int run_curve(int argc, char** argv) {
   opt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
   opt.features.angle_deg = a.get_double("feature-angle", opt.features.angle_deg, 0.0, 180.0);
   opt.long_edges.ratio = a.get_double("long-edge-ratio", opt.long_edges.ratio, 0.0, 1e9);
-  opt.validity.quality_floor = a.get_double("min-jacobian", 0.0, 0.0, 0.9);
+  opt.validity.quality_floor = a.get_double("min-jacobian", opt.validity.quality_floor, 0.0, 0.9);
   const std::string support = a.get_choice("support", "auto", {"auto", "on", "off"});
   opt.use_support = support == "on"    ? Tristate::On
                     : support == "off" ? Tristate::Off
