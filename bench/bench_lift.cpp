@@ -9,6 +9,7 @@
 // bench/LIFT.md.
 #include "engine/coarse/decimate.hpp"
 #include "engine/coarse/lift.hpp"
+#include "engine/coarse/redecimate.hpp"
 #include "engine/coarse/refine.hpp"
 #include "engine/coarse/surface_distance.hpp"
 #include "engine/curving/test_meshes.hpp"
@@ -40,6 +41,7 @@ struct Run {
   DecimateResult dec;
   LiftResult lift;
   std::string refine;  ///< lift_and_refine's message (BENCH_LIFT_TOL)
+  std::string redecimate;  ///< redecimate_where_far's message
   double decimate = 0, map = 0, lift_seconds = 0;
 };
 
@@ -75,18 +77,27 @@ Run coarsen(const Mesh& fine, DecimateOptions dopt, int p) {
   const double t1 = now();
   r.map = r.dec.seconds_flatten + r.dec.seconds_tracking;
   r.decimate = (t1 - t0) - r.map;
+  const LiftOptions lopt = lift_options(dopt, p);
+  const DenseSurface S = build_dense_surface(fine, dense_surface_options(lopt));
+  RedecimateOptions rdo;
+  if (const char* e = std::getenv("BENCH_LIFT_REDECIMATE")) rdo.rounds = std::atoi(e);
+  if (const char* e = std::getenv("BENCH_LIFT_TOL")) rdo.tolerance = std::atof(e);
+  if (const char* m = std::getenv("BENCH_LIFT_MAXRATIO")) rdo.max_faces = static_cast<int>(std::atof(m) * fine.num_faces());
+  if (std::getenv("BENCH_LIFT_NOGROW")) rdo.max_faces = 0;
+  RedecimateResult rd = redecimate_where_far(fine, dopt, r.dec, lopt, S, rdo);
+  r.redecimate = rd.message;
   if (const char* e = std::getenv("BENCH_LIFT_TOL")) {
     RefineOptions ro;
     ro.tolerance = std::atof(e);
     if (const char* m = std::getenv("BENCH_LIFT_MAXRATIO")) ro.max_faces = static_cast<int>(std::atof(m) * fine.num_faces());
-    RefineResult rr = lift_and_refine(fine, r.dec, lift_options(dopt, p), ro);
+    RefineResult rr = lift_and_refine(fine, r.dec, lopt, ro, &S, &rd.lift);
     r.lift = std::move(rr.lift);
     char buf[200];
     std::snprintf(buf, sizeof buf, " [largest element deviation %.3f%% -> %.3f%%; measure %.2f s, split %.2f s, lift %.2f s]",
                   100 * rr.deviation_before, 100 * rr.deviation_after, rr.seconds_measure, rr.seconds_split, rr.seconds_lift);
     r.refine = rr.message + buf;
   } else {
-    r.lift = lift_coarse(fine, r.dec, lift_options(dopt, p));
+    r.lift = std::move(rd.lift);
   }
   r.lift_seconds = now() - t1;
   return r;
@@ -213,6 +224,7 @@ void real(const std::string& file, double ratio, int p) {
               L.validity.invalid_after, L.resnapped_elements, L.fit_fallback_elements, L.slid_elements, L.slid_clusters, L.validity.repaired, L.dense_feature_edges, L.coarse_feature_edges,
               r.decimate, r.map, r.lift_seconds);
   if (!D.reached_target) std::printf("    %s\n", D.message.c_str());
+  std::printf("    redecimate: %s\n", r.redecimate.c_str());
   if (!r.refine.empty()) std::printf("    refine: %s\n", r.refine.c_str());
   if (std::getenv("BENCH_LIFT_ELEMENTS")) {
     const double t0 = now();

@@ -5,6 +5,7 @@
 
 #include "engine/coarse/decimate.hpp"
 #include "engine/coarse/lift.hpp"
+#include "engine/coarse/redecimate.hpp"
 #include "engine/coarse/refine.hpp"
 #include "engine/coarse/vertex_fans.hpp"
 #include "engine/core/error.hpp"
@@ -33,7 +34,8 @@ const std::vector<OptionSpec> kCoarsenOptions = {
     {"threads", true, "worker threads (default: all cores)"},
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
     {"max-deviation", true, "refuse collapses moving a dense vertex > F x diagonal off the coarse faces (default 0.015; 0: off)"},
-    {"tolerance", true, "then split edges where the curved mesh is further than F x diagonal from the input (default 0: off)"},
+    {"redecimate", true, "decimate again up to K times, weighting up where the curved mesh strays most, and keep the closest (default 6; 0: off)"},
+    {"tolerance", true, "then grow the face count and split edges while the curved mesh is further than F x diagonal from the input (default 0: off)"},
     {"max-faces", true, "with --tolerance: never more coarse triangles than this (default: the input's count)"},
     {"long-edge-ratio", true, "dense edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
     {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0.01; 0: only invalid ones; e.g. 0.1)"},
@@ -45,13 +47,15 @@ const char* kCoarsenUsage =
     "usage: hocurve coarsen INPUT -o OUTPUT.msh --order P (--faces N | --ratio R)\n"
     "                       [--nodes equispaced|lobatto] [--format msh41|msh22] [--binary]\n"
     "                       [--stats STATS.json] [--threads N] [--feature-angle DEG]\n"
-    "                       [--max-deviation F] [--tolerance F [--max-faces N]]\n"
+    "                       [--max-deviation F] [--redecimate K] [--tolerance F [--max-faces N]]\n"
     "                       [--long-edge-ratio R] [--min-jacobian Q] [--progress]\n"
     "Decimates a linear triangle surface mesh to N triangles (or R x its count), keeping feature\n"
     "curves, and curves the coarse triangles to order P so that they stay on the dense surface.\n"
-    "With --tolerance, elements further than F x the bounding-box diagonal from the input (both\n"
-    "ways) are then split (longest-edge bisection on the dense surface) and the mesh is curved\n"
-    "again, up to --max-faces; the round closest to the input is kept.\n";
+    "Where a few elements stray far more than the rest, the mesh is decimated again with the\n"
+    "quadrics under them weighted up (--redecimate rounds); the closest round is kept.\n"
+    "With --tolerance, while elements are further than F x the bounding-box diagonal from the\n"
+    "input (both ways), the face count grows (re-decimated) and then they are split (longest-edge\n"
+    "bisection on the dense surface), up to --max-faces; the round closest to the input is kept.\n";
 
 nlohmann::json histogram(const std::vector<long long>& h) {
   nlohmann::json j = nlohmann::json::array();
@@ -129,6 +133,17 @@ nlohmann::json lift_json(const LiftResult& l) {
             {"total", l.seconds_total}}}};
 }
 
+nlohmann::json redecimation_json(const RedecimateResult& r, const RedecimateOptions& o) {
+  return {{"rounds_asked", o.rounds},
+          {"rounds", r.rounds},
+          {"kept_round", r.kept_round},
+          {"straying_elements", r.straying},
+          {"message", r.message},
+          {"deviation_first_relative", r.deviation_first},
+          {"deviation_kept_relative", r.deviation_kept},
+          {"seconds", {{"decimate", r.seconds_decimate}, {"lift", r.seconds_lift}, {"measure", r.seconds_measure}}}};
+}
+
 nlohmann::json refinement_json(const RefineResult& r, const RefineOptions& o) {
   return {{"tolerance", o.tolerance},
           {"max_faces", o.max_faces},
@@ -172,6 +187,9 @@ int run_coarsen(int argc, char** argv) {
   ropt.tolerance = a.get_double("tolerance", 0.0, 0.0, 1.0);
   ropt.max_faces = static_cast<int>(a.get_int("max-faces", 0, 4, 100000000));
   if (a.has("max-faces") && !a.has("tolerance")) throw UsageError("--max-faces needs --tolerance");
+  RedecimateOptions rdo;
+  rdo.rounds = static_cast<int>(a.get_int("redecimate", rdo.rounds, 0, 100));
+  rdo.tolerance = ropt.tolerance;
   MshOptions msh;
   msh.version = a.get_choice("format", "msh41", {"msh41", "msh22"}) == "msh22" ? MshOptions::Version::V22
                                                                               : MshOptions::Version::V41;
@@ -194,10 +212,13 @@ int run_coarsen(int argc, char** argv) {
   const FanSplit split = split_vertex_fans(in.mesh);
   dopt.pinned_vertices = split.pinned;
   DecimateResult dec = decimate(split.mesh, dopt);
-  if (!dec.reached_target) std::cerr << "hocurve coarsen: warning: " << dec.message << "\n";
   const double t2 = now_seconds();
-  const nlohmann::json decimation = decimation_json(dec, t2 - t1);  // before any refinement splits
-  const RefineResult refined = lift_and_refine(split.mesh, dec, lopt, ropt);
+  const DenseSurface dense = build_dense_surface(split.mesh, dense_surface_options(lopt));
+  rdo.max_faces = ropt.max_faces > 0 ? ropt.max_faces : split.mesh.num_faces();
+  RedecimateResult redecimated = redecimate_where_far(split.mesh, dopt, dec, lopt, dense, rdo);
+  if (!dec.reached_target) std::cerr << "hocurve coarsen: warning: " << dec.message << "\n";
+  const nlohmann::json decimation = decimation_json(dec, t2 - t1);  // the kept one, before any refinement splits
+  const RefineResult refined = lift_and_refine(split.mesh, dec, lopt, ropt, &dense, &redecimated.lift);
   if (ropt.tolerance > 0 && !refined.reached) std::cerr << "hocurve coarsen: warning: " << refined.message << "\n";
   const LiftResult& lift = refined.lift;
   // The split parts meet again at their pinned copies: one vertex and one edge each, as in the input.
@@ -222,6 +243,7 @@ int run_coarsen(int argc, char** argv) {
     s["decimation"]["split_vertices"] = split.split_vertices;
     s["decimation"]["nonmanifold_edges"] = split.nonmanifold_edges;
     s["lifting"] = lift_json(lift);
+    s["redecimation"] = redecimation_json(redecimated, rdo);
     s["refinement"] = refinement_json(refined, ropt);
     s["rejoin"] = {{"vertices", lift.mesh.V.rows() - out.V.rows()},
                    {"invalid_before", rejoined.invalid_before},

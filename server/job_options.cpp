@@ -82,7 +82,7 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
   static const std::vector<std::string> known = {"mode",          "order",     "nodes",         "format",
                                                  "binary",        "faces",     "ratio",         "max_deviation",
                                                  "tolerance",     "max_faces", "feature_angle", "long_edge_ratio",
-                                                 "min_jacobian"};
+                                                 "min_jacobian",  "redecimate"};
   Errors err;
   for (auto& [k, v] : raw.items())
     if (std::find(known.begin(), known.end(), k) == known.end()) {
@@ -135,10 +135,16 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
     number("ratio", [](double x) { return x > 0 && x <= 1; }, "a number in (0, 1]");
     number("max_deviation", [](double x) { return x >= 0 && x <= 1; }, "a number in [0, 1] (0: no limit)");
     number("tolerance", [](double x) { return x >= 0 && x <= 1; }, "a number in [0, 1] (0: no refinement)");
+    if (raw.contains("redecimate")) {
+      long long n = 0;
+      if (!parse_int(raw["redecimate"], n) || n < 0 || n > 100)
+        err.add("redecimate", "redecimate must be an integer from 0 to 100, got " + as_text(raw["redecimate"]));
+      out["redecimate"] = n;
+    }
     face_count("max_faces");
     if (raw.contains("max_faces") && !raw.contains("tolerance")) err.add("max_faces", "max_faces needs tolerance");
   } else {
-    for (const char* k : {"faces", "ratio", "max_deviation", "tolerance", "max_faces"})
+    for (const char* k : {"faces", "ratio", "max_deviation", "redecimate", "tolerance", "max_faces"})
       if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=coarsen only");
     // Equispaced by default: Gmsh's Lagrange elements (and the readers that follow them) put node k
     // at the k-th equispaced point, so Lobatto nodes read as equispaced distort the surface
@@ -177,6 +183,7 @@ std::vector<std::string> worker_argv(const std::string& program, const nlohmann:
     if (o.contains("faces")) a.insert(a.end(), {"--faces", std::to_string(o["faces"].get<long long>())});
     if (o.contains("ratio")) a.insert(a.end(), {"--ratio", number("ratio")});
     if (o.contains("max_deviation")) a.insert(a.end(), {"--max-deviation", number("max_deviation")});
+    if (o.contains("redecimate")) a.insert(a.end(), {"--redecimate", std::to_string(o["redecimate"].get<long long>())});
     if (o.contains("tolerance")) a.insert(a.end(), {"--tolerance", number("tolerance")});
     if (o.contains("max_faces")) a.insert(a.end(), {"--max-faces", std::to_string(o["max_faces"].get<long long>())});
   } else {

@@ -226,6 +226,7 @@ def main(argv=None):
     s.add_argument("--faces", type=int)
     s.add_argument("--ratio", type=float)
     s.add_argument("--max-deviation", type=float, dest="max_deviation")
+    s.add_argument("--redecimate", type=int)
     s.add_argument("--tolerance", type=float)
     s.add_argument("--max-faces", type=int, dest="max_faces")
     s.add_argument("--feature-angle", type=float, dest="feature_angle")
@@ -254,7 +255,7 @@ def main(argv=None):
     try:
         if args.cmd == "submit":
             opts = {k: getattr(args, k) for k in ("mode", "order", "nodes", "format", "faces", "ratio", "max_deviation",
-                                                  "tolerance", "max_faces", "feature_angle", "long_edge_ratio",
+                                                  "redecimate", "tolerance", "max_faces", "feature_angle", "long_edge_ratio",
                                                   "min_jacobian")
                     if getattr(args, k) is not None}
             if args.binary:

@@ -522,6 +522,10 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
   R.fewest_faces = fewest_faces_keeping(fine, T, fm.edge, fm.corner);
   // Quadrics: area-weighted face planes, plus planes through feature edges perpendicular to
   // their faces so that feature curves cost what they deviate.
+  if (!opt.vertex_weight.empty() && static_cast<int>(opt.vertex_weight.size()) != nv)
+    throw UsageError("decimate: vertex_weight has " + std::to_string(opt.vertex_weight.size()) + " entries for " +
+                     std::to_string(nv) + " vertices");
+  auto weight = [&](int v) { return opt.vertex_weight.empty() ? 1.0 : opt.vertex_weight[v]; };
   D.Q.assign(nv, Quadric{});
   for (int f = 0; f < nf; ++f) {
     const auto& t = D.F[f];
@@ -529,16 +533,15 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
     const double area = 0.5 * n2.norm();
     if (!(area > 0)) continue;
     const Eigen::Vector3d n = n2.normalized();
-    const Quadric q = plane_quadric(D.X[t[0]], n, area);
-    for (int x : t) D.Q[x] += q;
+    for (int x : t) D.Q[x] += plane_quadric(D.X[t[0]], n, area * weight(x));
     for (int j = 0; j < 3; ++j) {
       const int a = t[j], b = t[(j + 1) % 3];
       if (!D.feat.count(edge_key(a, b))) continue;
       const Eigen::Vector3d e = D.X[b] - D.X[a];
       const Eigen::Vector3d m = e.cross(n);
       if (m.norm() == 0) continue;
-      const Quadric qe = plane_quadric(D.X[a], m.normalized(), e.squaredNorm());
-      D.Q[a] += qe, D.Q[b] += qe;
+      D.Q[a] += plane_quadric(D.X[a], m.normalized(), e.squaredNorm() * weight(a));
+      D.Q[b] += plane_quadric(D.X[a], m.normalized(), e.squaredNorm() * weight(b));
     }
   }
   D.rej = &R.rejected;

@@ -47,6 +47,9 @@ struct DecimateOptions {
   /// 1.04 -> 0.90%, spot 1.39 -> 1.17%, armadillo, skull the same); at 2% bunny stops at 214 faces
   /// (target 132; P4 5.23 -> 1.37%), skull 298 (206; 3.60 -> 1.73%), spot 208 (116; 5.07 -> 1.38%).
   double max_deviation = 0.015;
+  /// Per fine vertex, a factor on its quadric (empty: all 1): vertices with a larger weight cost
+  /// more to move, so their region keeps more coarse vertices.
+  std::vector<double> vertex_weight;
   /// Vertices that never move and are never removed (e.g. FanSplit::pinned: the copies of a
   /// split non-manifold vertex, which must stay together).
   std::vector<int> pinned_vertices;

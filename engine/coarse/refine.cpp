@@ -7,6 +7,7 @@
 #include <chrono>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <set>
 
 namespace hocurve {
@@ -65,11 +66,13 @@ std::vector<std::array<int, 2>> edges_to_split(const DecimateResult& dec, const 
 
 }  // namespace
 
-RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOptions& lopt, const RefineOptions& opt) {
+RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOptions& lopt, const RefineOptions& opt,
+                             const DenseSurface* dense, LiftResult* lifted) {
   RefineResult R;
-  const DenseSurface S = build_dense_surface(fine, dense_surface_options(lopt));
+  std::optional<DenseSurface> own;
+  const DenseSurface& S = dense ? *dense : own.emplace(build_dense_surface(fine, dense_surface_options(lopt)));
   auto t = Clock::now();
-  R.lift = lift_coarse(fine, dec, lopt, &S);
+  R.lift = lifted ? std::move(*lifted) : lift_coarse(fine, dec, lopt, &S);
   R.lift.seconds_dense = S.seconds;
   R.seconds_lift += seconds_since(t);
   R.faces_before = dec.coarse.num_faces();

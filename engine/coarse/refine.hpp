@@ -38,8 +38,11 @@ struct RefineResult {
 /// (split_coarse_edges; an edge on a feature curve too: its new vertex lands on the dense curve),
 /// and the mesh is lifted again; of the rounds, the one closest to the input is kept. dec (coarse
 /// mesh and map) is updated in place. lopt.progress sees the first lifting's stages,
-/// then ("refine round k", 1.0) before each round.
+/// then ("refine round k", 1.0) before each round. dense: the dense surface
+/// (build_dense_surface(fine, dense_surface_options(lopt))), built here if null; lifted: dec's
+/// lifting if already done (moved from).
 RefineResult lift_and_refine(const Mesh& fine, DecimateResult& dec, const LiftOptions& lopt,
-                             const RefineOptions& opt = {});
+                             const RefineOptions& opt = {}, const DenseSurface* dense = nullptr,
+                             LiftResult* lifted = nullptr);
 
 }  // namespace hocurve

@@ -1,0 +1,107 @@
+#include "engine/coarse/redecimate.hpp"
+
+#include "engine/coarse/surface_distance.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+namespace hocurve {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+/// A dense vertex's weight never exceeds this: a region that stays far whatever it gets would
+/// otherwise pin ever more of the budget round after round.
+constexpr double kMaxWeight = 100;
+
+double largest(const std::vector<double>& v) { return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end()); }
+
+}  // namespace
+
+RedecimateResult redecimate_where_far(const Mesh& fine, const DecimateOptions& dopt, DecimateResult& dec,
+                                      const LiftOptions& lopt, const DenseSurface& dense,
+                                      const RedecimateOptions& opt) {
+  RedecimateResult R;
+  auto t = Clock::now();
+  R.lift = lift_coarse(fine, dec, lopt, &dense);
+  R.seconds_lift += seconds_since(t);
+  t = Clock::now();
+  R.deviation = element_deviation(R.lift.mesh, fine);
+  R.seconds_measure += seconds_since(t);
+  const double diag = R.lift.bbox_diagonal;
+  double best = largest(R.deviation);
+  R.deviation_first = R.deviation_kept = best / diag;
+  const double target = opt.target_fraction * best;
+  for (double d : R.deviation) R.straying += d > target;
+  const int nf = static_cast<int>(R.deviation.size());
+  char line[160];
+  std::snprintf(line, sizeof line, "%d of %d elements beyond %.0f%% of the largest deviation (%.3g%% of the diagonal)",
+                R.straying, nf, 100 * opt.target_fraction, 100 * R.deviation_first);
+  R.message = line;
+  if (opt.rounds <= 0 || !dopt.build_map || best <= opt.tolerance * diag || R.straying == 0 ||
+      R.straying > opt.max_straying_share * nf) {
+    R.message += opt.rounds <= 0 ? ": no re-decimation asked"
+                 : R.straying > opt.max_straying_share * nf ? ": the error is even, no re-decimation"
+                                                              : ": no re-decimation needed";
+    return R;
+  }
+
+  std::vector<double> weight(fine.num_vertices(), 1.0);
+  auto weigh = [&](const CoarseMap& map, const std::vector<double>& dev) {
+    for (int v = 0; v < fine.num_vertices(); ++v) {
+      const int f = map.vertex_coarse_face[v];
+      if (f >= 0 && dev[f] > target) weight[v] = std::min(kMaxWeight, weight[v] * (dev[f] / target) * (dev[f] / target));
+    }
+  };
+  weigh(dec.map, R.deviation);
+  LiftOptions quiet = lopt;  // the rounds do not report the lifting's stages again
+  quiet.progress = nullptr;
+  // The face count of the rounds: the decimation's, grown while the tolerance is out of reach.
+  DecimateOptions o = dopt;
+  o.target_faces = dec.target_faces;
+  const int first_faces = dec.coarse.num_faces();
+  const bool may_grow = opt.tolerance > 0 && opt.max_faces > first_faces;
+  for (int at_count = 0, rounds = opt.rounds;; ++at_count) {
+    if (best <= opt.tolerance * diag) break;
+    if (at_count == rounds) {
+      const int from = std::max(o.target_faces, first_faces);  // an unreached target: what was reached
+      const int grown = std::min(opt.max_faces, static_cast<int>(std::ceil(opt.growth * from)));
+      if (!may_grow || grown <= from) break;
+      o.target_faces = grown;
+      at_count = 0;
+      rounds = std::max(1, opt.grown_rounds);
+    }
+    ++R.rounds;
+    o.vertex_weight = weight;
+    t = Clock::now();
+    DecimateResult d = decimate(fine, o);
+    R.seconds_decimate += seconds_since(t);
+    t = Clock::now();
+    LiftResult L = lift_coarse(fine, d, quiet, &dense);
+    R.seconds_lift += seconds_since(t);
+    t = Clock::now();
+    std::vector<double> dev = element_deviation(L.mesh, fine);
+    R.seconds_measure += seconds_since(t);
+    weigh(d.map, dev);
+    // Never more faces than asked for, or than the first decimation had where that was out of reach.
+    if (largest(dev) < best && d.coarse.num_faces() <= std::max(first_faces, o.target_faces)) {
+      best = largest(dev);
+      dec = std::move(d);
+      R.lift = std::move(L);
+      R.deviation = std::move(dev);
+      R.kept_round = R.rounds;
+    }
+    if (lopt.progress) lopt.progress("re-decimate round " + std::to_string(R.rounds), 1.0);
+  }
+  R.deviation_kept = best / diag;
+  std::snprintf(line, sizeof line, "; %d re-decimations, kept round %d: %.3g%% (%d faces)", R.rounds, R.kept_round,
+                100 * R.deviation_kept, dec.coarse.num_faces());
+  R.message += line;
+  return R;
+}
+
+}  // namespace hocurve
