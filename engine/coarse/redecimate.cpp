@@ -65,15 +65,14 @@ RedecimateResult redecimate_where_far(const Mesh& fine, const DecimateOptions& d
   o.target_faces = dec.target_faces;
   const int first_faces = dec.coarse.num_faces();
   const bool may_grow = opt.tolerance > 0 && opt.max_faces > first_faces;
-  for (int at_count = 0, rounds = opt.rounds;; ++at_count) {
+  for (int at_count = 0;; ++at_count) {
     if (best <= opt.tolerance * diag) break;
-    if (at_count == rounds) {
+    if (at_count == opt.rounds) {
       const int from = std::max(o.target_faces, first_faces);  // an unreached target: what was reached
       const int grown = std::min(opt.max_faces, static_cast<int>(std::ceil(opt.growth * from)));
       if (!may_grow || grown <= from) break;
       o.target_faces = grown;
       at_count = 0;
-      rounds = std::max(1, opt.grown_rounds);
     }
     ++R.rounds;
     o.vertex_weight = weight;

@@ -30,7 +30,6 @@ struct RedecimateOptions {
   /// grows by this factor, with the weights so far, up to max_faces (0: the count never grows).
   int max_faces = 0;
   double growth = 1.25;
-  int grown_rounds = 2;  ///< rounds at each grown count (the weights carry over from the last)
 };
 
 struct RedecimateResult {
