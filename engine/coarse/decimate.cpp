@@ -520,12 +520,12 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
   }
   for (int v = 0; v < nv; ++v) R.corners += fm.corner[v];
   R.fewest_faces = fewest_faces_keeping(fine, T, fm.edge, fm.corner);
-  // Quadrics: area-weighted face planes, plus planes through feature edges perpendicular to
-  // their faces so that feature curves cost what they deviate.
   if (!opt.vertex_weight.empty() && static_cast<int>(opt.vertex_weight.size()) != nv)
     throw UsageError("decimate: vertex_weight has " + std::to_string(opt.vertex_weight.size()) + " entries for " +
                      std::to_string(nv) + " vertices");
   auto weight = [&](int v) { return opt.vertex_weight.empty() ? 1.0 : opt.vertex_weight[v]; };
+  // Quadrics: area-weighted face planes, plus planes through feature edges perpendicular to
+  // their faces so that feature curves cost what they deviate; each scaled by its vertex's weight.
   D.Q.assign(nv, Quadric{});
   for (int f = 0; f < nf; ++f) {
     const auto& t = D.F[f];
