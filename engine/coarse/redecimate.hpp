@@ -34,9 +34,9 @@ struct RedecimateOptions {
 
 struct RedecimateResult {
   LiftResult lift;                 ///< of the kept decimation
-  std::vector<double> deviation;   ///< its element_deviation (absolute)
+  std::vector<double> deviation;   ///< its element_deviation (absolute; empty with rounds 0)
   int rounds = 0, kept_round = 0;  ///< rounds run; the kept one (0: the first decimation)
-  int straying = 0;                ///< elements of the first lifting beyond the target
+  int straying = 0;                ///< elements of the first lifting beyond the target (rough sample when even)
   double deviation_first = 0, deviation_kept = 0;  ///< largest element deviation / diagonal
   std::string message;             ///< one line: what ran and what was kept
   double seconds_decimate = 0, seconds_lift = 0, seconds_measure = 0;
