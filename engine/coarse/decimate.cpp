@@ -7,6 +7,7 @@
 #include "engine/coarse/surface_distance.hpp"
 #include "engine/coarse/vertex_fans.hpp"
 #include "engine/core/error.hpp"
+#include "engine/core/stopwatch.hpp"
 #include "engine/core/topology.hpp"
 #include "engine/curving/features.hpp"
 
@@ -23,9 +24,6 @@
 namespace hocurve {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 std::uint64_t edge_key(int a, int b) {
   if (a > b) std::swap(a, b);

@@ -1,5 +1,6 @@
 #include "engine/coarse/dense_surface.hpp"
 
+#include "engine/core/stopwatch.hpp"
 #include "engine/curving/band_fit.hpp"
 #include "engine/curving/place_nodes.hpp"
 #include "engine/curving/support_points.hpp"
@@ -14,7 +15,7 @@
 namespace hocurve {
 
 DenseSurface build_dense_surface(const Mesh& fine, const DenseSurfaceOptions& opt) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   DenseSurface S;
   S.mesh = &fine;
   S.T = build_topology(fine.F, fine.num_vertices());
@@ -32,7 +33,7 @@ DenseSurface build_dense_surface(const Mesh& fine, const DenseSurfaceOptions& op
   S.long_face = long_edges(fine, S.T, S.W, S.fits.fits, opt.long_edges).face;
   S.curves = fit_feature_curves(fine, S.T, S.features, opt.degree, opt.fit);
   S.max_lift = opt.max_lift;
-  S.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  S.seconds = seconds_since(t0);
   return S;
 }
 

@@ -4,6 +4,7 @@
 #include "engine/coarse/surface_distance.hpp"
 
 #include "engine/core/error.hpp"
+#include "engine/core/stopwatch.hpp"
 #include "engine/curving/place_nodes.hpp"
 
 #include <Eigen/Geometry>
@@ -20,9 +21,6 @@
 namespace hocurve {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 template <class F>
 void parallel(int n, F&& body) {
@@ -302,7 +300,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
     R.vertices = dec.coarse.num_vertices(), R.faces = dec.coarse.num_faces(), R.edges = Tc.num_edges();
     R.mesh = high_order_frame(dec.coarse, Tc, 1, opt.distribution);
     R.validity = check_validity(R.mesh, opt.validity);
-    R.seconds_total = since(t_all);
+    R.seconds_total = seconds_since(t_all);
     progress("done", 1.0);
     return R;
   }
@@ -374,7 +372,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
     R.coarse_grown += cfits[w].rings > 1;
   }
   R.coarse_mean_points = cfits.empty() ? 0 : sum_points / cfits.size();
-  R.seconds_coarse_fits = since(t0);
+  R.seconds_coarse_fits = seconds_since(t0);
 
   // 4. High-order nodes: blend of the coarse fits, snapped onto the dense surface.
   progress("placement", 0.6);
@@ -464,7 +462,7 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
     R.refine_max /= R.bbox_diagonal;
     R.refine_rms = ho_nodes ? std::sqrt(sum2 / ho_nodes) / R.bbox_diagonal : 0;
   }
-  R.seconds_placement = since(t0);
+  R.seconds_placement = seconds_since(t0);
 
   // 5. Validity. Snapped nodes interpolate the dense data, noise included (scans): where that
   // folds an element, its nodes re-snap along the straight normals, then go back toward the
@@ -612,8 +610,8 @@ LiftResult lift_coarse(const Mesh& fine, const DecimateResult& dec, const LiftOp
       hm = std::move(cands[0]);
     }
   }
-  R.seconds_validity = since(t0);
-  R.seconds_total = since(t_all);
+  R.seconds_validity = seconds_since(t0);
+  R.seconds_total = seconds_since(t_all);
   progress("done", 1.0);
   return R;
 }

@@ -1,6 +1,7 @@
 #include "engine/coarse/redecimate.hpp"
 
 #include "engine/coarse/surface_distance.hpp"
+#include "engine/core/stopwatch.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -10,9 +11,6 @@
 namespace hocurve {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 /// A dense vertex's weight never exceeds this: a region that stays far whatever it gets would
 /// otherwise pin ever more of the budget round after round.

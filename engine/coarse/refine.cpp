@@ -1,6 +1,7 @@
 #include "engine/coarse/refine.hpp"
 
 #include "engine/coarse/surface_distance.hpp"
+#include "engine/core/stopwatch.hpp"
 #include "engine/core/topology.hpp"
 
 #include <algorithm>
@@ -13,9 +14,6 @@
 namespace hocurve {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 using EdgeSet = std::set<std::pair<int, int>>;  ///< edges by their vertices, smaller first
 

@@ -1,5 +1,7 @@
 #include "engine/curving/curve_fit.hpp"
 
+#include "engine/core/stopwatch.hpp"
+
 #include <Eigen/Geometry>
 #include <Eigen/QR>
 #include <tbb/blocked_range.h>
@@ -177,7 +179,7 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
 
 CurveFitResult fit_feature_curves(const Mesh& mesh, const Topology& T, const Features& feat,
                                   int p, const FitOptions& opt) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   CurveFitResult R;
   const int ne = T.num_edges();
   R.fits.resize(2 * static_cast<size_t>(ne));
@@ -193,7 +195,7 @@ CurveFitResult fit_feature_curves(const Mesh& mesh, const Topology& T, const Fea
         ++R.fitted;
         if (R.fits[2 * e + s].degree < p) ++R.downgraded;
       }
-  R.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  R.seconds = seconds_since(t0);
   return R;
 }
 

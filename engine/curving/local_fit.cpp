@@ -1,5 +1,7 @@
 #include "engine/curving/local_fit.hpp"
 
+#include "engine/core/stopwatch.hpp"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <Eigen/QR>
@@ -915,7 +917,7 @@ int wedge_degree(const Wedges& W, int w, int p, const FitOptions& opt) {
 
 FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
                      const SupportPoints* support, const FitOptions& opt) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   FitResult R;
   const int nw = W.num_wedges();
   R.fits.resize(nw);
@@ -958,7 +960,7 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
     pts += f.points;
   }
   R.mean_points = nw ? pts / nw : 0;
-  R.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  R.seconds = seconds_since(t0);
   return R;
 }
 

@@ -1,5 +1,7 @@
 #include "engine/curving/place_nodes.hpp"
 
+#include "engine/core/stopwatch.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -30,7 +32,7 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
                             const std::vector<LocalFit>& fits, const Features* feat,
                             const CurveFitResult* curves, int p, NodeDistribution d,
                             const LongEdgeResult* long_edge) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   PlacementResult R;
   R.mesh = high_order_frame(mesh, T, p, d);
   HighOrderMesh& hm = R.mesh;
@@ -86,7 +88,7 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
     R.curve_edges += on_curve[e];
     R.long_edges += long_edge && long_edge->unreached[e] && !on_curve[e];
   }
-  R.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  R.seconds = seconds_since(t0);
   return R;
 }
 

@@ -1,6 +1,7 @@
 #include "engine/curving/solf.hpp"
 
 #include "engine/core/error.hpp"
+#include "engine/core/stopwatch.hpp"
 #include "engine/core/topology.hpp"
 #include "engine/curving/band_fit.hpp"
 #include "engine/curving/place_nodes.hpp"
@@ -11,13 +12,6 @@
 #include <cmath>
 
 namespace hocurve {
-
-namespace {
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-}  // namespace
 
 Deviation measure_deviation(const Mesh& mesh, const HighOrderMesh& hm) {
   Deviation D;
@@ -72,28 +66,28 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
   auto t0 = Clock::now();
   const Topology T = build_topology(mesh.F, mesh.num_vertices());
   R.edges = T.num_edges();
-  R.topology_seconds = since(t0);
+  R.topology_seconds = seconds_since(t0);
 
   if (opt.method == CurveOptions::Method::Linear) {
     progress("placement", 0.5);
     t0 = Clock::now();
     R.mesh = make_straight_high_order(mesh, T, p, opt.distribution);
-    R.placement_seconds = since(t0);
+    R.placement_seconds = seconds_since(t0);
   } else {
     progress("features", 0.05);
     t0 = Clock::now();
     R.features = detect_features(mesh, T, opt.features);
-    R.features_seconds = since(t0);
+    R.features_seconds = seconds_since(t0);
 
     progress("distance", 0.1);
     t0 = Clock::now();
     R.distance = feature_distance(mesh, T, R.features, opt.distance);
-    R.distance_seconds = since(t0);
+    R.distance_seconds = seconds_since(t0);
 
     progress("uniformity", 0.15);
     t0 = Clock::now();
     R.uniformity = check_uniformity(mesh, T, opt.uniformity);
-    R.uniformity_seconds = since(t0);
+    R.uniformity_seconds = seconds_since(t0);
 
     R.support_used = opt.use_support == Tristate::On ||
                      (opt.use_support == Tristate::Auto && !R.uniformity.uniform);
@@ -103,7 +97,7 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
       t0 = Clock::now();
       support = sample_support(mesh, opt.support);
       R.support_points = support.P.rows();
-      R.support_seconds = since(t0);
+      R.support_seconds = seconds_since(t0);
     }
 
     progress("fits", 0.25);
@@ -137,9 +131,9 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
   progress("validity", 0.85);
   t0 = Clock::now();
   R.validity = opt.repair ? repair_validity(R.mesh, opt.validity) : check_validity(R.mesh, opt.validity);
-  R.validity_seconds = since(t0);
+  R.validity_seconds = seconds_since(t0);
   R.deviation = measure_deviation(mesh, R.mesh);
-  R.total_seconds = since(t_all);
+  R.total_seconds = seconds_since(t_all);
   progress("done", 1.0);
   return R;
 }
