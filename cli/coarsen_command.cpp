@@ -213,6 +213,7 @@ int run_coarsen(int argc, char** argv) {
   dopt.pinned_vertices = split.pinned;
   DecimateResult dec = decimate(split.mesh, dopt);
   const double t2 = now_seconds();
+  progress("dense fits", 0.4);
   const DenseSurface dense = build_dense_surface(split.mesh, dense_surface_options(lopt));
   rdo.max_faces = ropt.max_faces > 0 ? ropt.max_faces : split.mesh.num_faces();
   RedecimateResult redecimated = redecimate_where_far(split.mesh, dopt, dec, lopt, dense, rdo);

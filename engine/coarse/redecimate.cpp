@@ -24,8 +24,16 @@ RedecimateResult redecimate_where_far(const Mesh& fine, const DecimateOptions& d
                                       const LiftOptions& lopt, const DenseSurface& dense,
                                       const RedecimateOptions& opt) {
   RedecimateResult R;
+  // Progress: the first lifting and each planned round take an equal share of lopt's 0..1 (rounds
+  // of a grown face count report 1).
+  const double share = 1.0 / (1 + std::max(0, opt.rounds));
+  LiftOptions first = lopt;
+  if (lopt.progress)
+    first.progress = [&](const std::string& stage, double f) {
+      if (stage != "done") lopt.progress(stage, share * f);
+    };
   auto t = Clock::now();
-  R.lift = lift_coarse(fine, dec, lopt, &dense);
+  R.lift = lift_coarse(fine, dec, first, &dense);
   R.seconds_lift += seconds_since(t);
   if (opt.rounds <= 0 || !dopt.build_map) {  // nothing to measure for
     R.message = "no re-decimation asked";
@@ -107,7 +115,7 @@ RedecimateResult redecimate_where_far(const Mesh& fine, const DecimateOptions& d
       R.deviation = std::move(dev);
       R.kept_round = R.rounds;
     }
-    if (lopt.progress) lopt.progress("re-decimate round " + std::to_string(R.rounds), 1.0);
+    if (lopt.progress) lopt.progress("re-decimate round " + std::to_string(R.rounds), std::min(1.0, (1 + R.rounds) * share));
   }
   R.deviation_kept = best / diag;
   std::snprintf(line, sizeof line, "; %d re-decimations, kept round %d: %.3g%% (%d faces)", R.rounds, R.kept_round,
