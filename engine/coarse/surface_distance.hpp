@@ -38,7 +38,8 @@ bool grid_within(const TriangleGrid& grid, const Eigen::Vector3d& x, double r);
 /// only of the elements listed in faces.
 Mesh tessellate(const HighOrderMesh& hm, int n, const std::vector<int>* faces = nullptr);
 
-/// Points of every face of mesh at the barycentric lattice of degree n (shared points repeated).
+/// Points of every face of mesh at the barycentric lattice of degree n >= 1, each once (points on
+/// shared vertices and edges are not repeated).
 Eigen::MatrixXd sample_faces(const Mesh& mesh, int n);
 
 struct HausdorffResult {
