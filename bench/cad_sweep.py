@@ -1,0 +1,129 @@
+#!/usr/bin/python3
+"""Generality sweep: CAD shapes that no option was tuned on, curved from Gmsh's STL at P1..P6.
+
+Each shape is built with Gmsh's OpenCASCADE kernel (a cone with its apex, a box with filleted edges,
+a cylinder with a cross hole, a sphere cut by a plane, half a torus), meshed by Gmsh at size h, written
+as STL, curved by `hocurve curve --order p`, and measured against the exact CAD: the largest distance
+from the element's own Lagrange map, sampled on a degree max(2p, 6) lattice, to the closest of the
+model's surfaces (gmsh.model.getClosestPoint). Also reported: the largest distance per CAD surface
+type (plane, cylinder, sphere, cone, torus, ...) closest to each sample, which tells where the
+error is (e.g. the fillets of a box), and that every element is valid and the mesh watertight.
+REF P4: Gmsh's own P4 of the same triangulation from the exact CAD (setOrder(4)), for scale.
+
+Usage: cad_sweep.py [--hocurve build/hocurve] [--out /tmp/hocurve-sweep] [--sizes 0.1,0.05]
+                    [--orders 1,2,4,6] [SHAPE ...]
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from bench import measure_error as me  # noqa: E402
+from bench import shapes  # noqa: E402
+
+SHAPES = ["cone", "filletbox", "crosshole", "cutsphere", "halftorus"]
+
+
+def build(gmsh, name):
+    """Create shape `name` in a new model (made current)."""
+    gmsh.model.add(name)
+    occ = gmsh.model.occ
+    if name == "cone":  # apex at (0, 0, 1): a point singularity
+        occ.addCone(0, 0, 0, 0, 0, 1, 0.5, 0)
+    elif name == "filletbox":  # planes, cylinders and sphere corners meeting tangentially
+        box = occ.addBox(0, 0, 0, 1, 0.8, 0.6)
+        occ.synchronize()
+        occ.fillet([box], [t for (_, t) in gmsh.model.getEntities(1)], [0.15])
+    elif name == "crosshole":  # two cylinders: a non-planar intersection curve
+        outer = occ.addCylinder(0, 0, -1, 0, 0, 2, 0.6)
+        hole = occ.addCylinder(-1, 0, 0, 2, 0, 0, 0.3)
+        occ.cut([(3, outer)], [(3, hole)])
+    elif name == "cutsphere":
+        sphere = occ.addSphere(0, 0, 0, 1)
+        occ.cut([(3, sphere)], [(3, occ.addBox(-2, -2, 0.4, 4, 4, 4))])
+    elif name == "halftorus":
+        torus = occ.addTorus(0, 0, 0, 1, 0.35)
+        occ.cut([(3, torus)], [(3, occ.addBox(-2, 0, -1, 4, 2, 2))])
+    else:
+        raise ValueError("unknown shape " + name)
+    occ.synchronize()
+
+
+def closest_surface(gmsh, P):
+    """Distance from every point of P to the current model's surfaces, and the closest one's type."""
+    best = np.full(len(P), np.inf)
+    kind = np.empty(len(P), dtype=object)
+    for (_, tag) in gmsh.model.getEntities(2):
+        c, _ = gmsh.model.getClosestPoint(2, tag, P.reshape(-1).tolist())
+        d = np.linalg.norm(np.asarray(c).reshape(-1, 3) - P, axis=1)
+        closer = d < best
+        best[closer], kind[closer] = d[closer], gmsh.model.getType(2, tag)
+    return best, kind
+
+
+def measure(gmsh, msh, name):
+    m = me.read_triangles(msh)
+    gmsh.model.setCurrent(name)
+    B = me.basis(m["type"], me.lattice(max(2 * m["order"], 6)))
+    P = np.einsum("pn,enk->epk", B, m["X"]).reshape(-1, 3)
+    d, kind = closest_surface(gmsh, P)
+    by_kind = {k: float(d[kind == k].max()) for k in sorted(set(kind))}
+    return float(d.max()), by_kind, len(m["X"]), me.edge_check(m["conn"], m["order"])["watertight"]
+
+
+def main(argv):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("shapes", nargs="*", default=SHAPES)
+    ap.add_argument("--hocurve", default=os.path.join(os.path.dirname(__file__), "..", "build", "hocurve"))
+    ap.add_argument("--out", default="/tmp/hocurve-sweep")
+    ap.add_argument("--sizes", default="0.1,0.05")
+    ap.add_argument("--orders", default="1,2,4,6")
+    a = ap.parse_args(argv)
+    os.makedirs(a.out, exist_ok=True)
+    gmsh = shapes.gmsh_init()
+    orders = [int(p) for p in a.orders.split(",")]
+    print("| shape | h | #tri | " + " | ".join("P%d" % p for p in orders) + " | REF P4 | worst surface type (P4 or last) | invalid | watertight |")
+    print("|---|---|---|" + "---|" * len(orders) + "---|---|---|---|")
+    failed = False
+    for name in a.shapes:
+        for h in (float(x) for x in a.sizes.split(",")):
+            build(gmsh, name)
+            gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+            gmsh.option.setNumber("Mesh.MeshSizeMin", h / 4)
+            gmsh.model.mesh.generate(2)
+            stl = os.path.join(a.out, "%s_%g.stl" % (name, h))
+            gmsh.write(stl)
+            gmsh.model.mesh.setOrder(4)
+            ref = os.path.join(a.out, "%s_%g_ref4.msh" % (name, h))
+            gmsh.write(ref)
+            gmsh.model.mesh.setOrder(1)
+            errors, invalid, tight, ntri, where = [], 0, True, 0, ""
+            for p in orders:
+                msh = os.path.join(a.out, "%s_%g_p%d.msh" % (name, h, p))
+                r = subprocess.run([a.hocurve, "curve", stl, "--order", str(p), "-o", msh, "--stats", msh + ".json"],
+                                   capture_output=True, text=True)
+                if r.returncode != 0:
+                    errors.append("exit %d" % r.returncode)
+                    failed = True
+                    continue
+                stats = json.load(open(msh + ".json"))
+                invalid += stats["curving"]["validity"]["invalid_after"] if p > 1 else 0
+                e, by_kind, ntri, wt = measure(gmsh, msh, name)
+                tight &= bool(wt)
+                errors.append("%.2e" % e)
+                if p == 4 or not where:
+                    where = ", ".join("%s %.1e" % kv for kv in by_kind.items())
+            failed |= invalid > 0 or not tight
+            ref_error = measure(gmsh, ref, name)[0]
+            print("| %s | %g | %d | %s | %.2e | %s | %d | %s |" % (name, h, ntri, " | ".join(errors), ref_error, where,
+                                                                 invalid, "yes" if tight else "no"), flush=True)
+            gmsh.model.remove()
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
