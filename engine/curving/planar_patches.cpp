@@ -49,12 +49,25 @@ std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const P
       for (int g : ef)
         if (g != f) largest_border[find_root(parent, f)] = std::max(largest_border[find_root(parent, f)], area[g]);
   }
+  // Patches holding a vertex with its whole (closed) star.
+  std::vector<char> star(nf, 0);
+  if (opt.whole_star)
+    for (int v = 0; v < mesh.num_vertices(); ++v) {
+      auto [b, end] = T.faces_of(v);
+      if (end - b < 3) continue;
+      const int r = find_root(parent, *b);
+      bool whole = true;
+      for (const int* it = b; it != end && whole; ++it) whole = find_root(parent, *it) == r;
+      auto [eb, ee] = T.edges_of(v);
+      for (const int* it = eb; it != ee && whole; ++it) whole = coplanar_edge[*it];
+      if (whole) star[r] = 1;
+    }
   // The anchor of a qualifying patch: its largest face.
   std::vector<int> largest(nf, -1);
   for (int f = 0; f < nf; ++f) {
     const int r = find_root(parent, f);
-    if (size[r] >= 2 && smallest[r] >= opt.area_ratio * largest_border[r] && (largest[r] < 0 || area[f] > area[largest[r]]))
-      largest[r] = f;
+    const bool qualifies = size[r] >= 2 && (star[r] || smallest[r] >= opt.area_ratio * largest_border[r]);
+    if (qualifies && (largest[r] < 0 || area[f] > area[largest[r]])) largest[r] = f;
   }
   for (int f = 0; f < nf; ++f) anchor[f] = largest[find_root(parent, f)];
   return anchor;

@@ -24,6 +24,11 @@ struct PlanarPatchOptions {
   /// times larger than every face bordering it. Why: the strips of a CAD cylinder are planar
   /// pairs too, but bordered by strips of their own size.
   double area_ratio = 4.0;
+  /// A patch also qualifies when it holds a vertex whose whole star is in it (every edge around the
+  /// vertex coplanar): a flat CAD face meshed with interior vertices, as Gmsh meshes it, whose
+  /// border with a fillet or a tangent cylinder has no size contrast. A cylinder's strips are
+  /// coplanar pairs without such a vertex; a curved surface is coplanar that widely only by chance.
+  bool whole_star = true;
 };
 
 struct PlanarPatchResult {

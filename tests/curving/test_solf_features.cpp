@@ -5,6 +5,7 @@
 
 #include "engine/core/topology.hpp"
 #include "engine/curving/long_edges.hpp"
+#include "engine/curving/planar_patches.hpp"
 #include "engine/curving/solf.hpp"
 #include "engine/curving/test_meshes.hpp"
 #include "engine/highorder/lagrange.hpp"
@@ -12,10 +13,12 @@
 #include "engine/highorder/validity.hpp"
 #include "engine/io/read_mesh.hpp"
 #include "gmsh_session.hpp"
+#include <Eigen/Geometry>
 #include <gmsh.h>
 
 #include <string>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -427,9 +430,64 @@ TEST_CASE("flat CAD faces between fillets stay flat") {
   CHECK(r.validity.invalid_after == 0);
   CHECK(watertight_gap(r.mesh) < 1e-12);
   CHECK(r.deviation.max_relative < 0.7 * bent.deviation.max_relative);
-  // The capped cylinder's strips are coplanar pairs too, but bordered by strips of their size.
-  const CurveResult c = curve_mesh(capped_cylinder_cad(16, 0.5, 1.0), CurveOptions{});
-  CHECK(c.planar.faces == 0);
+  // The capped cylinder's strips are coplanar pairs too, but bordered by strips of their size and
+  // without a vertex inside: only its two cap fans (a vertex with its whole star) are planes.
+  const Mesh cyl = capped_cylinder_cad(16, 0.5, 1.0);
+  const std::vector<int> anchor = planar_patch_faces(cyl, build_topology(cyl.F, cyl.num_vertices()));
+  int side = 0, cap = 0;
+  for (int f = 0; f < cyl.num_faces(); ++f) {
+    const Eigen::Vector3d a = cyl.V.row(cyl.F(f, 0)), b = cyl.V.row(cyl.F(f, 1)), c = cyl.V.row(cyl.F(f, 2));
+    const bool on_cap = std::abs((b - a).cross(c - a).normalized().z()) > 0.99;
+    (on_cap ? cap : side) += anchor[f] >= 0;
+  }
+  CHECK(side == 0);
+  CHECK(cap == 32);
+}
+
+TEST_CASE("a flat face meshed with inside vertices stays flat beside its fillets") {
+  // Gmsh meshes a flat CAD face with vertices inside it, of the fillets' size: no size contrast,
+  // but a vertex with its whole star in the plane. A box with rounded edges, its flat top a grid
+  // whose border rows meet quarter-cylinder fillets tangentially.
+  Mesh m;
+  const int n = 8, arc = 4;  // top grid n x n cells of size 1/n; fillet of radius 0.25 along x = 1
+  const double r = 0.25;
+  std::vector<Eigen::Vector3d> V;
+  for (int j = 0; j <= n; ++j) {
+    for (int i = 0; i <= n; ++i) V.emplace_back(double(i) / n, double(j) / n, 0.0);
+    for (int k = 1; k <= arc; ++k) {
+      const double t = 0.5 * M_PI * k / arc;
+      V.emplace_back(1.0 + r * std::sin(t), double(j) / n, -r + r * std::cos(t));
+    }
+  }
+  const int row = n + 1 + arc;
+  std::vector<std::array<int, 3>> F;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < row - 1; ++i) {
+      const int a = j * row + i, b = a + 1, c = a + row, d = c + 1;
+      F.push_back({a, b, d});
+      F.push_back({a, d, c});
+    }
+  m.V.resize(V.size(), 3);
+  for (size_t v = 0; v < V.size(); ++v) m.V.row(v) = V[v].transpose();
+  m.F.resize(F.size(), 3);
+  for (size_t f = 0; f < F.size(); ++f) m.F.row(f) << F[f][0], F[f][1], F[f][2];
+  CurveOptions o;
+  const CurveResult r4 = curve_mesh(m, o);
+  o.planar.whole_star = false;
+  const CurveResult bent = curve_mesh(m, o);
+  double off = 0, off_bent = 0;
+  for (int f = 0; f < m.num_faces(); ++f) {
+    if (m.V(m.F(f, 0), 0) > 1 - 1e-12 || m.V(m.F(f, 1), 0) > 1 - 1e-12 || m.V(m.F(f, 2), 0) > 1 - 1e-12) continue;
+    const Eigen::MatrixXd X = element_nodes(r4.mesh, f), Y = element_nodes(bent.mesh, f);
+    off = std::max(off, X.col(2).cwiseAbs().maxCoeff());
+    off_bent = std::max(off_bent, Y.col(2).cwiseAbs().maxCoeff());
+  }
+  MESSAGE("flat top beside a fillet, P4: nodes off the plane " << off << " (without the whole-star rule: " << off_bent << ")");
+  CHECK(r4.planar.faces == 2 * n * n);
+  CHECK(off < 1e-12);
+  CHECK(off_bent > 1e-4);
+  CHECK(r4.validity.invalid_after == 0);
+  CHECK(watertight_gap(r4.mesh) < 1e-12);
 }
 
 TEST_CASE("long edges of CAD exports take their PN triangle; gradual meshes have none") {
