@@ -49,18 +49,13 @@ std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const P
       for (int g : ef)
         if (g != f) largest_border[find_root(parent, f)] = std::max(largest_border[find_root(parent, f)], area[g]);
   }
-  // Patches holding a vertex with its whole (closed) star.
+  // Patches holding a vertex with its whole star: every edge around it joins two coplanar faces.
   std::vector<char> star(nf, 0);
   if (opt.whole_star)
     for (int v = 0; v < mesh.num_vertices(); ++v) {
-      auto [b, end] = T.faces_of(v);
-      if (end - b < 3) continue;
-      const int r = find_root(parent, *b);
-      bool whole = true;
-      for (const int* it = b; it != end && whole; ++it) whole = find_root(parent, *it) == r;
-      auto [eb, ee] = T.edges_of(v);
-      for (const int* it = eb; it != ee && whole; ++it) whole = coplanar_edge[*it];
-      if (whole) star[r] = 1;
+      auto [b, e] = T.edges_of(v);
+      if (b == e || !std::all_of(b, e, [&](int edge) { return coplanar_edge[edge] != 0; })) continue;
+      star[find_root(parent, *T.faces_of(v).first)] = 1;
     }
   // The anchor of a qualifying patch: its largest face.
   std::vector<int> largest(nf, -1);
