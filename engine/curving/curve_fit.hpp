@@ -15,8 +15,10 @@ namespace hocurve {
 /// (no constant term) in s/h with coefficients cy, cz giving offsets / h. With a reference circle
 /// (kappa > 0: radius 1 / kappa, centre o + n1 / kappa, in the plane of t and n1) s is the arc
 /// length along the circle, y the offset from it towards its centre and z out of its plane: the
-/// curve's osculating circle, as the osculating torus for surface fits (local_fit.hpp), so that
-/// arcs of CAD rims and holes are fitted exactly and stencils spanning a large angle converge.
+/// circle through the curve's points where they lie on one, else the curve's osculating circle
+/// (FitOptions::curve_reference_circle), as the osculating torus for surface fits (local_fit.hpp),
+/// so that arcs of CAD rims, holes and fillets are fitted exactly and stencils spanning a large
+/// angle converge.
 struct CurveFit {
   Eigen::Vector3d o = Eigen::Vector3d::Zero(), t = Eigen::Vector3d::UnitX(),
                   n1 = Eigen::Vector3d::UnitY(), n2 = Eigen::Vector3d::UnitZ();

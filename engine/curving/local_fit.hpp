@@ -142,8 +142,11 @@ struct FitOptions {
   /// Feature-curve fits (curve_fit.hpp) do not reach across a curve vertex whose two curve edges
   /// differ in length by more than this factor: the fits on either side are one-sided there.
   double curve_break_ratio = 3.0;
-  /// Feature-curve fits measure offsets from the curve's osculating circle (CurveFit::kappa).
+  /// Feature-curve fits measure offsets from the circle through the vertex that fits the curve's points
+  /// best (CurveFit::kappa): exact on circular arcs however short.
   bool curve_reference_circle = true;
+  /// ... where the curve's points lie within this x h of that circle (curve_fit.cpp).
+  double circle_tolerance = 1e-3;
 };
 
 /// Number of coefficients of the interpolatory basis u^j v^k, 1 <= j+k <= p.

@@ -12,6 +12,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <numbers>
 #include <random>
 
 using namespace hocurve;
@@ -141,26 +142,33 @@ TEST_CASE("wedges split at feature edges; stencils never cross them") {
   }
 }
 
-TEST_CASE("curve fits follow the rim circle with order p+1") {
+TEST_CASE("curve fits follow the rim circle: exactly over the reference circle, with order p+1 without") {
+  FitOptions polynomial;
+  polynomial.curve_reference_circle = false;
   double prev = 0;
   for (int n : {24, 48}) {
     const Mesh m = capped_cylinder(n, 4, 0.5, 1.0);
     const Topology T = build_topology(m.F, m.num_vertices());
     const Features feat = detect_features(m, T);
-    const CurveFitResult C = fit_feature_curves(m, T, feat, 4);
-    CHECK(C.fitted == 2 * 2 * n);
-    CHECK(C.downgraded == 0);
-    double err = 0;
-    for (int e = 0; e < T.num_edges(); ++e) {
-      if (!feat.edge_feature[e]) continue;
-      for (double t : {0.25, 0.5, 0.75}) {
-        const Eigen::Vector3d x = curve_edge_point(m, T, C, e, t);
-        err = std::max({err, std::abs(x.head<2>().norm() - 0.5), std::abs(std::abs(x.z()) - 0.5)});
+    auto rim_error = [&](const FitOptions& opt) {
+      const CurveFitResult C = fit_feature_curves(m, T, feat, 4, opt);
+      CHECK(C.fitted == 2 * 2 * n);
+      CHECK(C.downgraded == 0);
+      double err = 0;
+      for (int e = 0; e < T.num_edges(); ++e) {
+        if (!feat.edge_feature[e]) continue;
+        for (double t : {0.25, 0.5, 0.75}) {
+          const Eigen::Vector3d x = curve_edge_point(m, T, C, e, t);
+          err = std::max({err, std::abs(x.head<2>().norm() - 0.5), std::abs(std::abs(x.z()) - 0.5)});
+        }
+        // Ends are the input vertices.
+        CHECK((curve_edge_point(m, T, C, e, 0.0) - m.V.row(T.E(e, 0)).transpose()).norm() < 1e-15);
       }
-      // Ends are the input vertices.
-      CHECK((curve_edge_point(m, T, C, e, 0.0) - m.V.row(T.E(e, 0)).transpose()).norm() < 1e-15);
-    }
-    MESSAGE("rim circle, " << n << " segments, P4 curve fit error " << err);
+      return err;
+    };
+    CHECK(rim_error(FitOptions{}) < 1e-13);
+    const double err = rim_error(polynomial);
+    MESSAGE("rim circle, " << n << " segments, P4 polynomial curve fit error " << err);
     if (prev > 0) CHECK(std::log2(prev / err) >= 4.5);
     prev = err;
   }
@@ -300,4 +308,38 @@ TEST_CASE("quadric reference: coords and point are inverse; fits reproduce an el
   CHECK(inverse < 1e-12);
   CHECK(e[1] < 1e-12);
   CHECK(e[1] < e[0] / 100);
+}
+
+TEST_CASE("curve fits: a quarter circle of three edges between corners is fitted exactly") {
+  // A flat sector fan: centre, then the arc at 0, 30, 60, 90 degrees (radius 0.15, as a fillet's
+  // cross section meshed by Gmsh at h = 0.1). The boundary turns 90 degrees at both arc ends, so
+  // the arc is a curve of three edges between corners and each end's fit has three points.
+  const double r = 0.15;
+  Mesh m;
+  m.V.resize(5, 3);
+  m.V.row(0) << 0, 0, 0;
+  for (int i = 0; i < 4; ++i) {
+    const double a = i * std::numbers::pi / 6;
+    m.V.row(i + 1) << r * std::cos(a), r * std::sin(a), 0;
+  }
+  m.F.resize(3, 3);
+  m.F << 0, 1, 2, 0, 2, 3, 0, 3, 4;
+  const Topology T = build_topology(m.F, m.num_vertices());
+  const Features feat = detect_features(m, T);
+  REQUIRE(feat.vertex_corner[1]);
+  REQUIRE(feat.vertex_corner[4]);
+  auto arc_error = [&](const FitOptions& opt) {
+    const CurveFitResult C = fit_feature_curves(m, T, feat, 4, opt);
+    double err = 0;
+    for (int e = 0; e < T.num_edges(); ++e) {
+      const int a = T.E(e, 0), b = T.E(e, 1);
+      if (a == 0 || b == 0) continue;  // the straight radii
+      for (double t : {0.25, 0.5, 0.75}) err = std::max(err, std::abs(curve_edge_point(m, T, C, e, t).norm() - r));
+    }
+    return err;
+  };
+  CHECK(arc_error(FitOptions{}) < 1e-12);
+  FitOptions polynomial;
+  polynomial.curve_reference_circle = false;
+  CHECK(arc_error(polynomial) > 1e-4);  // the cubic through three points of the arc
 }
