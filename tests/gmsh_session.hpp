@@ -16,17 +16,16 @@ struct GmshSession {
   ~GmshSession() { gmsh::finalize(); }
 };
 
-/// Meshes the current model's surfaces at uniform size h (call inside a GmshSession, after
-/// occ::synchronize) and returns the triangles with the nodes they use.
-inline hocurve::Mesh gmsh_surface_mesh(double h) {
-  gmsh::option::setNumber("Mesh.MeshSizeMin", h);
+/// Meshes the current model's surfaces at size h (down to hmin, default h; call inside a
+/// GmshSession, after occ::synchronize) and returns the triangles with the nodes they use; with
+/// entities, each face tagged with its CAD surface (Mesh::face_entity), as a .msh file keeps them.
+inline hocurve::Mesh gmsh_surface_mesh(double h, double hmin = -1, bool entities = false) {
+  gmsh::option::setNumber("Mesh.MeshSizeMin", hmin > 0 ? hmin : h);
   gmsh::option::setNumber("Mesh.MeshSizeMax", h);
   gmsh::model::mesh::generate(2);
   std::vector<std::size_t> tags;
   std::vector<double> coord, par;
   gmsh::model::mesh::getNodes(tags, coord, par, -1, -1, true, false);
-  std::vector<std::size_t> ftags, fnodes;
-  gmsh::model::mesh::getElementsByType(2, ftags, fnodes);
   std::size_t maxtag = 0;
   for (auto t : tags) maxtag = std::max(maxtag, t);
   std::vector<int> index(maxtag + 1, -1);
@@ -36,8 +35,18 @@ inline hocurve::Mesh gmsh_surface_mesh(double h) {
     index[tags[i]] = static_cast<int>(i);
     for (int k = 0; k < 3; ++k) m.V(i, k) = coord[3 * i + k];
   }
-  m.F.resize(static_cast<Eigen::Index>(ftags.size()), 3);
-  for (size_t f = 0; f < ftags.size(); ++f)
-    for (int k = 0; k < 3; ++k) m.F(f, k) = index[fnodes[3 * f + k]];
+  gmsh::vectorpair surfaces;
+  gmsh::model::getEntities(surfaces, 2);
+  std::vector<int> corners, entity;
+  for (const auto& [dim, tag] : surfaces) {
+    std::vector<std::size_t> ftags, fnodes;
+    gmsh::model::mesh::getElementsByType(2, ftags, fnodes, tag);
+    for (std::size_t n : fnodes) corners.push_back(index[n]);
+    entity.insert(entity.end(), ftags.size(), tag);
+  }
+  m.F.resize(static_cast<Eigen::Index>(entity.size()), 3);
+  for (size_t f = 0; f < entity.size(); ++f)
+    for (int k = 0; k < 3; ++k) m.F(f, k) = corners[3 * f + k];
+  if (entities) m.face_entity = Eigen::Map<Eigen::VectorXi>(entity.data(), static_cast<Eigen::Index>(entity.size()));
   return m;
 }

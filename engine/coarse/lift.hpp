@@ -26,6 +26,17 @@
 
 namespace hocurve {
 
+/// FitOptions for coarse lifting: dense curving's, but one-sided wedges keep their gated quadric
+/// choice (FitOptions::one_sided_quadric_agreement off). Measured with it on, largest deviation
+/// of the re-decimated coarse P4 mesh from the input: bunny_closed 4% 0.575% -> 0.850%, skull 5%
+/// 0.536% -> 0.545%, armadillo and spot unchanged (bunny_closed: the dense curving's own deviation did
+/// not change).
+inline FitOptions lift_fit_options() {
+  FitOptions f;
+  f.one_sided_quadric_agreement = 0;
+  return f;
+}
+
 struct LiftOptions {
   int order = 4;                                        ///< 1..6 (1: straight coarse triangles)
   NodeDistribution distribution = NodeDistribution::Equispaced;
@@ -33,7 +44,7 @@ struct LiftOptions {
   FeatureOptions features;
   int dense_degree = 4;        ///< degree of the dense fits (the reference surface)
   double max_lift = 0.1;       ///< DenseSurfaceOptions::max_lift
-  FitOptions fit;              ///< dense and coarse fits
+  FitOptions fit = lift_fit_options();  ///< dense and coarse fits
   LongEdgeOptions long_edges;  ///< dense faces with an edge their fits do not reach: PN triangles
   double coarse_sigma_factor = 1.0;  ///< Gaussian sigma of the coarse fits, in mean coarse edge lengths
   int max_rings = 3;           ///< coarse rings a coarse fit may grow to when short of dense points

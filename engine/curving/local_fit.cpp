@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -807,7 +808,7 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
         n1.normalize();
         trial = solve_height_fit(o, n1, h, P, wt, p, opt);
         if (one_sided && opt.one_sided_quadric && trial.degree == p && k >= opt.reference_min_points &&
-            S.rings < opt.max_rings)
+            (S.rings < opt.max_rings || opt.one_sided_quadric_in_bands))
           trial = one_sided_quadric_fit(mesh, W, w, P, wt, h, p, opt, std::move(trial));
       }
     }
@@ -913,6 +914,54 @@ int wedge_degree(const Wedges& W, int w, int p, const FitOptions& opt) {
   return W.one_sided(w) ? feature_fit_degree(p, opt) : p;
 }
 
+/// Largest distance, at the edge midpoints and centroids of wedge w's faces, between fit F and
+/// the fits of those faces' corners whose wedges are two-sided; -1 when no corner is.
+double disagreement(const Mesh& mesh, const Wedges& W, int w, const LocalFit& F, const std::vector<LocalFit>& fits) {
+  double worst = -1;
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
+    const int f = W.wedge_faces[i];
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+    for (int j = 0; j < 3; ++j) {
+      const int other = W.corner_wedge(f, j);
+      if (other == w || W.one_sided(other)) continue;
+      for (const Eigen::Vector3d& x : {Eigen::Vector3d((a + b) / 2), Eigen::Vector3d((b + c) / 2),
+                                       Eigen::Vector3d((a + c) / 2), Eigen::Vector3d((a + b + c) / 3)})
+        worst = std::max(worst, (F.project(x) - fits[other].project(x)).norm());
+    }
+  }
+  return worst;
+}
+
+/// FitOptions::one_sided_quadric_agreement: one-sided wedges refit with the quadric's gates open,
+/// and the refit kept where it agrees much better with the two-sided neighbours' fits. Only
+/// one-sided fits change and only two-sided ones are read, so the order does not matter.
+long long adopt_agreeing_quadrics(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
+                                  const SupportPoints* support, const std::vector<int>& sstart,
+                                  const std::vector<int>& sindex, const FitOptions& opt, std::vector<LocalFit>& fits) {
+  if (!opt.one_sided_quadric || !(opt.one_sided_quadric_agreement > 0)) return 0;
+  FitOptions open = opt;
+  open.one_sided_quadric_gap = std::numeric_limits<double>::infinity();
+  open.one_sided_quadric_in_bands = true;
+  const int nw = W.num_wedges();
+  std::atomic<long long> adopted{0};
+  tbb::enumerable_thread_specific<FitScratch> scratch;
+  tbb::parallel_for(tbb::blocked_range<int>(0, nw, 16), [&](const tbb::blocked_range<int>& r) {
+    FitScratch& s = scratch.local();
+    for (int w = r.begin(); w < r.end(); ++w) {
+      const int d = wedge_degree(W, w, p, opt);
+      if (!W.one_sided(w) || fits[w].quadric_ref || fits[w].degree != d) continue;
+      LocalFit q = fit_wedge(mesh, T, W, w, d, support, sstart, sindex, open, s);
+      if (!q.quadric_ref) continue;
+      const double plane_off = disagreement(mesh, W, w, fits[w], fits);
+      if (plane_off > 0 && disagreement(mesh, W, w, q, fits) < opt.one_sided_quadric_agreement * plane_off) {
+        fits[w] = std::move(q);
+        ++adopted;
+      }
+    }
+  });
+  return adopted;
+}
+
 }  // namespace
 
 FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
@@ -951,6 +1000,7 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
       }
     }
   });
+  R.agreeing_quadrics = adopt_agreeing_quadrics(mesh, T, W, p, support, sstart, sindex, opt, R.fits);
   R.degree_histogram.assign(p + 1, 0);
   double pts = 0;
   for (const auto& f : R.fits) {

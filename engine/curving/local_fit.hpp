@@ -84,6 +84,19 @@ struct FitOptions {
   /// 2.3e-8 / 2.3e-8, CAD screw d/80, d/160 0.95x, 0.91x; T20 and the shared meshes unchanged.
   bool one_sided_quadric = true;
   double one_sided_quadric_gap = 0.05;
+  /// Let one-sided wedges whose stencil reached max_rings try the quadric too (see above: off).
+  bool one_sided_quadric_in_bands = false;
+  /// A one-sided wedge whose quadric fit those two gates refused still takes it where, at its
+  /// faces' edge midpoints and centroids, the quadric fit is closer to the fits of the faces'
+  /// other corners off the features (two-sided stencils, over their own torus or quadric) than
+  /// its plane fit is, by at least this factor (0: never). Where the plane fit is poor the gap
+  /// gate refuses every good quadric: a fillet strip between two CAD-face borders, whose
+  /// one-sided plane fits of a 90 degree arc are 0.3 h off. Measured P4 (filleted box with its
+  /// CAD faces as entities, h = 0.05): cylinders 1.05e-3 -> 1.3e-6, planes 6.1e-3 -> 2e-14, corner
+  /// spheres 8.8e-4 -> 3.1e-5 (Gmsh's P4 from the CAD: 1.9e-6); skull deviation 0.477% -> 0.435%;
+  /// king (0.460%, where the quadric bends away), screw, T20, capped cylinder and the other shared
+  /// meshes unchanged.
+  double one_sided_quadric_agreement = 0.5;
   /// Surface fits at features have degree at most feature_max_degree (feature_fit_degree()):
   /// one-sided wedges (fit_wedges) and band wedges (refit_band_wedges). At degree 6 a half-disc
   /// stencil needs 54 points, reaches max_rings (so no quadric) and wraps far round curved faces;
@@ -265,6 +278,7 @@ struct FitResult {
   std::vector<long long> degree_histogram;  ///< [d] = number of fits of final degree d
   long long downgraded = 0;               ///< fits below the requested degree
   long long with_support = 0;             ///< fits that used support points
+  long long agreeing_quadrics = 0;        ///< one-sided wedges given their quadric fit by one_sided_quadric_agreement
   double mean_points = 0;
   double seconds = 0;
 };

@@ -490,6 +490,45 @@ TEST_CASE("a flat face meshed with inside vertices stays flat beside its fillets
   CHECK(watertight_gap(r4.mesh) < 1e-12);
 }
 
+TEST_CASE("fillets given as CAD faces: one-sided wedges take the quadric their neighbours agree with") {
+  // A box with filleted edges (r = 0.15) meshed by Gmsh at h = 0.05, each CAD face an entity: the
+  // face borders are feature curves, so each fillet is a strip three or four triangles across
+  // between two of them. Its one-sided plane fits of a 90 degree arc are far off, so the gap gate
+  // refuses their (exact) quadric fits; the fits of the strip's inner vertices agree with those.
+  const double r = 0.15;
+  const Eigen::Vector3d lo(r, r, r), hi(1 - r, 0.8 - r, 0.6 - r);  // the box the ball rolls round
+  Mesh m;
+  {
+    GmshSession gmsh_session;
+    gmsh::model::add("filletbox");
+    const int box = gmsh::model::occ::addBox(0, 0, 0, 1, 0.8, 0.6);
+    gmsh::model::occ::synchronize();
+    gmsh::vectorpair edges;
+    gmsh::model::getEntities(edges, 1);
+    std::vector<int> curves, volumes{box};
+    for (const auto& e : edges) curves.push_back(e.second);
+    gmsh::vectorpair out;
+    gmsh::model::occ::fillet(volumes, curves, {r}, out);
+    gmsh::model::occ::synchronize();
+    m = gmsh_surface_mesh(0.05, 0.0125, true);
+  }
+  // The filleted box is the inner box grown by a ball of radius r.
+  const Dist dist = [&](const Eigen::Vector3d& x) {
+    return std::abs((x - x.cwiseMax(lo).cwiseMin(hi)).norm() - r);
+  };
+  CurveOptions o;
+  const CurveResult R = curve_mesh(m, o);
+  const double err = surface_error(R.mesh, dist);
+  o.fit.one_sided_quadric_agreement = 0;
+  const double gated = surface_error(curve_mesh(m, o).mesh, dist);
+  MESSAGE(m.num_faces() << " triangles, " << R.fits.agreeing_quadrics << " wedges agreeing: P4 " << err
+                        << " (gated quadric: " << gated << ")");
+  CHECK(R.fits.agreeing_quadrics > 0);
+  CHECK(err < 1e-4);
+  CHECK(gated > 10 * err);
+  check_result(m, R);
+}
+
 TEST_CASE("long edges of CAD exports take their PN triangle; gradual meshes have none") {
   // t13_data: 48 mm extrusion-wall strips meet 2.6 mm fillet strips at 15 degrees; the corner fits
   // follow the fillets and bulged the walls by 4.4 mm. hinge_netgen: the same with Netgen's fans.
