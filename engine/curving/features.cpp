@@ -170,10 +170,12 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
   }
   if (kink_test) {
     const std::vector<char> wall = R.edge_feature;
+    const bool smooth_entities = opt.entity_borders && !opt.kinks_inside_entities && R.entity_border_edges > 0;
     for (int e = 0; e < ne; ++e) {
       if (wall[e] || T.edge_faces[e].size() != 2 || theta[e] < opt.weak_angle_deg ||
           (theta[e] > opt.angle_deg && !cap[e]))
         continue;
+      if (smooth_entities && mesh.entity_of(T.edge_faces[e][0]) == mesh.entity_of(T.edge_faces[e][1])) continue;
       const double kink = kink_angle_deg(mesh, T, wall, e, cap[e]);
       if (kink >= opt.kink_angle_deg && (cap[e] || kink >= 0.5 * theta[e])) {
         ++R.sharp_edges, ++R.kink_edges;
