@@ -9,9 +9,11 @@ model's surfaces (gmsh.model.getClosestPoint). Also reported: the largest distan
 type (plane, cylinder, sphere, cone, torus, ...) closest to each sample, which tells where the
 error is (e.g. the fillets of a box), and that every element is valid and the mesh watertight.
 REF P4: Gmsh's own P4 of the same triangulation from the exact CAD (setOrder(4)), for scale.
+--entities: hocurve reads Gmsh's .msh of the same mesh instead, each CAD face an entity, so the
+face borders (tangent ones too, e.g. where a fillet meets a plane) are feature curves.
 
 Usage: cad_sweep.py [--hocurve build/hocurve] [--out /tmp/hocurve-sweep] [--sizes 0.1,0.05]
-                    [--orders 1,2,4,6] [SHAPE ...]
+                    [--orders 1,2,4,6] [--entities] [SHAPE ...]
 """
 import argparse
 import json
@@ -82,6 +84,8 @@ def main(argv):
     ap.add_argument("--out", default="/tmp/hocurve-sweep")
     ap.add_argument("--sizes", default="0.1,0.05")
     ap.add_argument("--orders", default="1,2,4,6")
+    ap.add_argument("--entities", action="store_true",
+                    help="give hocurve a .msh keeping the CAD faces as entities (their borders are then features) instead of the STL")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     gmsh = shapes.gmsh_init()
@@ -95,7 +99,7 @@ def main(argv):
             gmsh.option.setNumber("Mesh.MeshSizeMax", h)
             gmsh.option.setNumber("Mesh.MeshSizeMin", h / 4)
             gmsh.model.mesh.generate(2)
-            stl = os.path.join(a.out, "%s_%g.stl" % (name, h))
+            stl = os.path.join(a.out, "%s_%g.%s" % (name, h, "msh" if a.entities else "stl"))
             gmsh.write(stl)
             gmsh.model.mesh.setOrder(4)
             ref = os.path.join(a.out, "%s_%g_ref4.msh" % (name, h))
@@ -103,7 +107,7 @@ def main(argv):
             gmsh.model.mesh.setOrder(1)
             errors, invalid, tight, ntri, where = [], 0, True, 0, ""
             for p in orders:
-                msh = os.path.join(a.out, "%s_%g_p%d.msh" % (name, h, p))
+                msh = os.path.join(a.out, "%s_%g%s_p%d.msh" % (name, h, "_entities" if a.entities else "", p))
                 r = subprocess.run([a.hocurve, "curve", stl, "--order", str(p), "-o", msh, "--stats", msh + ".json"],
                                    capture_output=True, text=True)
                 if r.returncode != 0:
