@@ -686,7 +686,8 @@ namespace {
 /// the wedge's faces (edge midpoints, centroids) by more than one_sided_quadric_gap x h: a
 /// half-disc of data leaves the quadric free on the open side, and there it can bend away.
 LocalFit one_sided_quadric_fit(const Mesh& mesh, const Wedges& W, int w, const Eigen::MatrixXd& P,
-                               const Eigen::VectorXd& wt, double h, int p, const FitOptions& opt, LocalFit plane) {
+                               const Eigen::VectorXd& wt, double h, int p, const FitOptions& opt, LocalFit plane,
+                               bool& gate_refused) {
   const FitReference qr = quadric_reference(plane.o, plane.n, P, wt);
   if (!qr.quadric_ref) return plane;
   LocalFit fq = solve_height_fit(plane.o, plane.n, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr);
@@ -696,7 +697,10 @@ LocalFit one_sided_quadric_fit(const Mesh& mesh, const Wedges& W, int w, const E
     const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
     for (const Eigen::Vector3d& x : {Eigen::Vector3d((a + b) / 2), Eigen::Vector3d((b + c) / 2),
                                      Eigen::Vector3d((a + c) / 2), Eigen::Vector3d((a + b + c) / 3)})
-      if ((fq.project(x) - plane.project(x)).norm() > opt.one_sided_quadric_gap * h) return plane;
+      if ((fq.project(x) - plane.project(x)).norm() > opt.one_sided_quadric_gap * h) {
+        gate_refused = true;
+        return plane;
+      }
   }
   return fq;
 }
@@ -807,9 +811,12 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
       if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) {
         n1.normalize();
         trial = solve_height_fit(o, n1, h, P, wt, p, opt);
-        if (one_sided && opt.one_sided_quadric && trial.degree == p && k >= opt.reference_min_points &&
-            (S.rings < opt.max_rings || opt.one_sided_quadric_in_bands))
-          trial = one_sided_quadric_fit(mesh, W, w, P, wt, h, p, opt, std::move(trial));
+        if (one_sided && opt.one_sided_quadric && trial.degree == p && k >= opt.reference_min_points) {
+          if (S.rings < opt.max_rings || opt.one_sided_quadric_in_bands)
+            trial = one_sided_quadric_fit(mesh, W, w, P, wt, h, p, opt, std::move(trial), scratch.quadric_gate_refused);
+          else
+            scratch.quadric_gate_refused = true;
+        }
       }
     }
     trial.rings = S.rings;
@@ -935,9 +942,11 @@ double disagreement(const Mesh& mesh, const Wedges& W, int w, const LocalFit& F,
 /// FitOptions::one_sided_quadric_agreement: one-sided wedges refit with the quadric's gates open,
 /// and the refit kept where it agrees much better with the two-sided neighbours' fits. Only
 /// one-sided fits change and only two-sided ones are read, so the order does not matter.
+/// gate_refused[w]: the first pass met a gate on wedge w (elsewhere the open refit is that fit).
 long long adopt_agreeing_quadrics(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
                                   const SupportPoints* support, const std::vector<int>& sstart,
-                                  const std::vector<int>& sindex, const FitOptions& opt, std::vector<LocalFit>& fits) {
+                                  const std::vector<int>& sindex, const FitOptions& opt,
+                                  const std::vector<char>& gate_refused, std::vector<LocalFit>& fits) {
   if (!opt.one_sided_quadric || !(opt.one_sided_quadric_agreement > 0)) return 0;
   FitOptions open = opt;
   open.one_sided_quadric_gap = std::numeric_limits<double>::infinity();
@@ -949,7 +958,7 @@ long long adopt_agreeing_quadrics(const Mesh& mesh, const Topology& T, const Wed
     FitScratch& s = scratch.local();
     for (int w = r.begin(); w < r.end(); ++w) {
       const int d = wedge_degree(W, w, p, opt);
-      if (!W.one_sided(w) || fits[w].quadric_ref || fits[w].degree != d) continue;
+      if (!gate_refused[w] || !W.one_sided(w) || fits[w].quadric_ref || fits[w].degree != d) continue;
       LocalFit q = fit_wedge(mesh, T, W, w, d, support, sstart, sindex, open, s);
       if (!q.quadric_ref) continue;
       const double plane_off = disagreement(mesh, W, w, fits[w], fits);
@@ -985,11 +994,13 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
   // Gmsh sphere's neighbours are a median 11k indices apart). Each fit still lands in its own
   // slot, so the result does not depend on the order.
   const std::vector<int> order = morton_order(mesh, W);
+  std::vector<char> gate_refused(nw, 0);
   tbb::enumerable_thread_specific<FitScratch> scratch;
   tbb::parallel_for(tbb::blocked_range<int>(0, nw, 64), [&](const tbb::blocked_range<int>& r) {
     FitScratch& s = scratch.local();
     for (int i = r.begin(); i < r.end(); ++i) {
       const int w = order[i];
+      s.quadric_gate_refused = false;
       R.fits[w] = fit_wedge(mesh, T, W, w, wedge_degree(W, w, p, opt), support, sstart, sindex, opt, s);
       if (R.fits[w].degree > opt.min_degree && R.fits[w].pivot_ratio < opt.high_degree_condition) {
         LocalFit low = fit_wedge(mesh, T, W, w, opt.min_degree, support, sstart, sindex, opt, s);
@@ -998,9 +1009,10 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
           R.fits[w] = std::move(low);
         }
       }
+      gate_refused[w] = s.quadric_gate_refused;
     }
   });
-  R.agreeing_quadrics = adopt_agreeing_quadrics(mesh, T, W, p, support, sstart, sindex, opt, R.fits);
+  R.agreeing_quadrics = adopt_agreeing_quadrics(mesh, T, W, p, support, sstart, sindex, opt, gate_refused, R.fits);
   R.degree_histogram.assign(p + 1, 0);
   double pts = 0;
   for (const auto& f : R.fits) {

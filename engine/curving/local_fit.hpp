@@ -294,6 +294,9 @@ struct FitScratch {
   StampSet seen;             ///< stencil vertices inside the normal cone
   std::vector<int> pts;
   std::vector<double> sorted;
+  /// Set (never cleared) when a one-sided quadric fit was refused by a gate the agreement pass
+  /// opens (one_sided_quadric_gap, or the stencil at max_rings): only those wedges are refit.
+  bool quadric_gate_refused = false;
 };
 
 /// The same without the sanity bound (used by fit_wedge).
