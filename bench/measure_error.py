@@ -160,6 +160,7 @@ class StepDistance:
                     vf[v].add(int(f))
                     self.vertex_uv[(int(v), int(f))] = uv
             self.vertex_faces = vf
+            self.V = V
             self.margin = 2.0 * float(d["h"])
 
     def element_faces(self, Xv):
@@ -186,6 +187,27 @@ class StepDistance:
                         M[e, col[f]] = True
             unknown[e] = not ok
         return M, unknown
+
+    def vertex_floor(self):
+        """The input's own floor: the largest distance of an input vertex (as the STL stores it)
+        from a CAD face it was meshed on. A vertex on a CAD curve belongs to the faces on both
+        sides, and a STEP curve is only within the file's tolerance of them (the screw's slot rims
+        are 3e-4 off its dome): no reconstruction through the input vertices gets below this there."""
+        if self.vertex_faces is None:
+            return None
+        gmsh = shapes.gmsh_init()
+        prev = gmsh.model.getCurrent()
+        gmsh.model.setCurrent(self.model)
+        V = np.asarray(self.V, dtype=np.float32).astype(np.float64)
+        worst = 0.0
+        try:
+            for f in self.faces:
+                vids = [v for v, fs in enumerate(self.vertex_faces) if f in fs]
+                if vids:
+                    worst = max(worst, float(np.linalg.norm(V[vids] - self.closest(f, V[vids]), axis=1).max()))
+        finally:
+            gmsh.model.setCurrent(prev)
+        return worst
 
     def vertex_params(self, f, vids):
         """Known surface parameters on face f of input vertices vids (E, 3); NaN where unknown."""
