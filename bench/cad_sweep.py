@@ -2,7 +2,8 @@
 """Generality sweep: CAD shapes that no option was tuned on, curved from Gmsh's STL at P1..P6.
 
 Each shape is built with Gmsh's OpenCASCADE kernel (a cone with its apex, a box with filleted edges,
-a cylinder with a cross hole, a sphere cut by a plane, half a torus), meshed by Gmsh at size h, written
+a cylinder with a cross hole, a sphere cut by a plane, half a torus; added in session 18, after the
+tangent-junction test was set: a capsule and a cylinder with filleted rims), meshed by Gmsh at size h, written
 as STL, curved by `hocurve curve --order p`, and measured against the exact CAD: the largest distance
 from the element's own Lagrange map, sampled on a degree max(2p, 6) lattice, to the closest of the
 model's surfaces (gmsh.model.getClosestPoint). Also reported: the largest distance per CAD surface
@@ -27,7 +28,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from bench import measure_error as me  # noqa: E402
 from bench import shapes  # noqa: E402
 
-SHAPES = ["cone", "filletbox", "crosshole", "cutsphere", "halftorus"]
+SHAPES = ["cone", "filletbox", "crosshole", "cutsphere", "halftorus", "capsule", "roundcyl"]
 
 
 def build(gmsh, name):
@@ -50,6 +51,13 @@ def build(gmsh, name):
     elif name == "halftorus":
         torus = occ.addTorus(0, 0, 0, 1, 0.35)
         occ.cut([(3, torus)], [(3, occ.addBox(-2, 0, -1, 4, 2, 2))])
+    elif name == "capsule":  # a cylinder between two half spheres: tangent circles
+        parts = [occ.addCylinder(0, 0, -0.5, 0, 0, 1, 0.4), occ.addSphere(0, 0, -0.5, 0.4), occ.addSphere(0, 0, 0.5, 0.4)]
+        occ.fuse([(3, parts[0])], [(3, p) for p in parts[1:]])
+    elif name == "roundcyl":  # a cylinder with filleted rims: tori tangent to the side and the caps
+        cyl = occ.addCylinder(0, 0, 0, 0, 0, 1, 0.5)
+        occ.synchronize()
+        occ.fillet([cyl], [t for (_, t) in gmsh.model.getEntities(1) if gmsh.model.getType(1, t) == "Circle"], [0.12])
     else:
         raise ValueError("unknown shape " + name)
     occ.synchronize()

@@ -43,6 +43,23 @@ struct FeatureOptions {
   /// rows of vertices on a 90 degree arc) the quadric and |y| interpolate: a Gmsh filleted box
   /// at h = 0.1 had 40 such kinks, its P4 1.4e-2 off.
   bool kinks_inside_entities = false;
+  /// Tangent junctions (tangent_junctions.hpp): edges below angle_deg whose curvature_jump fit
+  /// leaves at most junction_max_ratio of the plain quadric fit's residual, with a jump (x edge
+  /// length) in [junction_min_jump, junction_max_jump], are features where at least
+  /// junction_min_edges of them connect; from such a curve's free ends, edges passing
+  /// junction_weak_ratio that continue it straight on (the end edges' stencils reach the next
+  /// junction); then curves still ending in the open are dropped (a junction bounds a face: a
+  /// partial find lets the fits reach round its ends, worse than none). The upper bound keeps
+  /// the curved side's radius at 2.5 edges or more: narrower fillet strips fit worse between
+  /// junctions than across them (a cylinder's r = 0.12 rim fillets at h = 0.05, even given as
+  /// CAD faces: 6.0e-3 against 6.1e-4). Set on a Gmsh filleted box (h = 0.05: exactly its 360
+  /// CAD face borders; P4 6.9e-4 -> 3.1e-5); none on the analytic and CAD benchmark meshes.
+  bool tangent_junctions = true;
+  double junction_min_jump = 0.05;
+  double junction_max_jump = 0.4;
+  double junction_max_ratio = 0.3;
+  double junction_weak_ratio = 0.7;
+  int junction_min_edges = 3;
   /// Open curves made only of sharp edges, with a free end (feature valence 1) and fewer than
   /// this many edges, are dropped as noise (scanned meshes have many); 0 keeps every curve.
   int min_dangling_edges = 0;
@@ -69,6 +86,7 @@ struct Features {
   int closed_curves = 0;              ///< curves that are closed loops without corners
   long long pruned_edges = 0;         ///< sharp edges dropped by min_dangling_edges (still counted in sharp_edges)
   long long kink_edges = 0;           ///< sharp edges accepted by the kink test (below angle_deg, or of a cap)
+  long long junction_edges = 0;       ///< tangent junction edges (FeatureOptions::tangent_junctions)
 };
 
 /// Detects feature edges, chains them into curves and marks corners.

@@ -145,4 +145,27 @@ Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w
   return S;
 }
 
+void edge_region_vertices(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e, int rings,
+                          std::vector<int>& faces, StampSet& seen, std::vector<int>& out) {
+  faces.assign(T.edge_faces[e].begin(), T.edge_faces[e].end());
+  seen.clear();
+  for (int f : faces) seen.insert(f);
+  for (int step = 0, begin = 0; step < rings; ++step) {
+    const int end = static_cast<int>(faces.size());
+    for (int i = begin; i < end; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const int g = T.FE(faces[i], j);
+        if (wall[g] || T.edge_faces[g].size() != 2) continue;
+        for (int f : T.edge_faces[g])
+          if (seen.insert(f)) faces.push_back(f);
+      }
+    begin = end;
+  }
+  out.clear();
+  for (int f : faces)
+    for (int j = 0; j < 3; ++j) out.push_back(mesh.F(f, j));
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+}
+
 }  // namespace hocurve

@@ -117,6 +117,12 @@ struct StencilScratch {
   std::vector<int> frontier, new_faces;
 };
 
+/// The vertices (ascending) of `rings` face rings around interior edge e: its faces, then at
+/// each step the faces across the region's manifold edges not marked in `wall`.
+/// `faces` and `seen` are working memory.
+void edge_region_vertices(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e, int rings,
+                          std::vector<int>& faces, StampSet& seen, std::vector<int>& out);
+
 /// grow_stencil with caller-provided working memory (the same stencil, no hashing).
 Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
                      const StencilOptions& opt, StencilScratch& scratch);

@@ -490,6 +490,31 @@ TEST_CASE("a flat face meshed with inside vertices stays flat beside its fillets
   CHECK(watertight_gap(r4.mesh) < 1e-12);
 }
 
+namespace {
+
+/// A box with filleted edges (radius r) meshed by Gmsh at size h, each CAD face an entity.
+Mesh filletbox_mesh(double h, double r) {
+  GmshSession gmsh_session;
+  gmsh::model::add("filletbox");
+  const int box = gmsh::model::occ::addBox(0, 0, 0, 1, 0.8, 0.6);
+  gmsh::model::occ::synchronize();
+  gmsh::vectorpair edges, out;
+  gmsh::model::getEntities(edges, 1);
+  std::vector<int> curves, volumes{box};
+  for (const auto& e : edges) curves.push_back(e.second);
+  gmsh::model::occ::fillet(volumes, curves, {r}, out);
+  gmsh::model::occ::synchronize();
+  return gmsh_surface_mesh(h, h / 4, true);
+}
+
+/// Distance to the filleted box of filletbox_mesh: to the box the ball of radius r rolls round, less r.
+Dist filletbox_distance(double r) {
+  const Eigen::Vector3d lo(r, r, r), hi(1 - r, 0.8 - r, 0.6 - r);
+  return [=](const Eigen::Vector3d& x) { return std::abs((x - x.cwiseMax(lo).cwiseMin(hi)).norm() - r); };
+}
+
+}  // namespace
+
 TEST_CASE("fillets given as CAD faces: smooth inside, one-sided quadrics the neighbours agree with") {
   // A box with filleted edges (r = 0.15) meshed by Gmsh, each CAD face an entity: the face borders
   // are feature curves, so each fillet is a strip two to four triangles across between two of
@@ -498,23 +523,9 @@ TEST_CASE("fillets given as CAD faces: smooth inside, one-sided quadrics the nei
   // strip's edges turn by up to 32 degrees, and the kink test, its stencils held inside the strip,
   // would make 40 of them sharp.
   const double r = 0.15;
-  const Eigen::Vector3d lo(r, r, r), hi(1 - r, 0.8 - r, 0.6 - r);  // the box the ball rolls round
-  const Dist dist = [&](const Eigen::Vector3d& x) { return std::abs((x - x.cwiseMax(lo).cwiseMin(hi)).norm() - r); };
+  const Dist dist = filletbox_distance(r);
   for (double h : {0.1, 0.05}) {
-    Mesh m;
-    {
-      GmshSession gmsh_session;
-      gmsh::model::add("filletbox");
-      const int box = gmsh::model::occ::addBox(0, 0, 0, 1, 0.8, 0.6);
-      gmsh::model::occ::synchronize();
-      gmsh::vectorpair edges, out;
-      gmsh::model::getEntities(edges, 1);
-      std::vector<int> curves, volumes{box};
-      for (const auto& e : edges) curves.push_back(e.second);
-      gmsh::model::occ::fillet(volumes, curves, {r}, out);
-      gmsh::model::occ::synchronize();
-      m = gmsh_surface_mesh(h, h / 4, true);
-    }
+    const Mesh m = filletbox_mesh(h, r);
     CurveOptions o;
     const CurveResult R = curve_mesh(m, o);
     const double err = surface_error(R.mesh, dist);
@@ -532,6 +543,45 @@ TEST_CASE("fillets given as CAD faces: smooth inside, one-sided quadrics the nei
     CHECK(err_gated > (h > 0.075 ? 3 : 10) * err);
     if (h > 0.075) CHECK(err_kinks > 3 * err);
     check_result(m, R);
+  }
+}
+
+TEST_CASE("tangent junctions: the filleted box's face borders found from the triangles alone") {
+  // The same box without its entities (what an STL gives): where a fillet meets a plane or a
+  // corner sphere the surface is smooth but its curvature jumps. At h = 0.05 (fillets about five
+  // triangles across) the junction test finds exactly the CAD face borders, and the P4 error is
+  // that of the mesh with the CAD faces as entities. At h = 0.1 the fillet's curvature radius is
+  // 1.5 edges (jump above junction_max_jump): none is taken, the fits span the fillets as before.
+  const double r = 0.15;
+  const Dist dist = filletbox_distance(r);
+  for (double h : {0.1, 0.05}) {
+    const Mesh cad = filletbox_mesh(h, r);
+    Mesh stl = cad;
+    stl.face_entity.resize(0);
+    const Topology T = build_topology(stl.F, stl.num_vertices());
+    const Features F = detect_features(stl, T);
+    long long borders = 0, found = 0;
+    for (int e = 0; e < T.num_edges(); ++e) {
+      const bool border = cad.entity_of(T.edge_faces[e][0]) != cad.entity_of(T.edge_faces[e][1]);
+      borders += border;
+      found += border && F.edge_feature[e];
+    }
+    CurveOptions o;
+    const CurveResult R = curve_mesh(stl, o);
+    o.features.tangent_junctions = false;
+    const double err = surface_error(R.mesh, dist), err_without = surface_error(curve_mesh(stl, o).mesh, dist);
+    MESSAGE("h = " << h << ": " << F.junction_edges << " junction edges, " << found << " of the " << borders
+                   << " CAD face borders; P4 " << err << " (without the test: " << err_without << ")");
+    CHECK(F.sharp_edges == 0);
+    if (h > 0.075) {
+      CHECK(F.junction_edges == 0);
+    } else {
+      CHECK(found == borders);
+      CHECK(F.junction_edges == borders);
+      CHECK(err < 1e-4);
+      CHECK(err_without > 10 * err);
+    }
+    check_result(stl, R);
   }
 }
 
