@@ -28,6 +28,7 @@ const std::vector<OptionSpec> kCurveOptions = {
     {"stats", true, "write every stage's figures and timings as JSON to this file"},
     {"threads", true, "worker threads (default: all cores)"},
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
+    {"tangent-junctions", true, "on (default: smooth borders where the curvature jumps, as a fillet's, are feature curves) | off"},
     {"long-edge-ratio", true, "edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
     {"support", true, "auto (default: when the triangulation is non-uniform) | on | off"},
     {"seed", true, "seed of the random support samples (default 1)"},
@@ -60,6 +61,7 @@ int run_curve(int argc, char** argv) {
                                                                              : CurveOptions::Method::Solf;
   opt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
   opt.features.angle_deg = a.get_double("feature-angle", opt.features.angle_deg, 0.0, 180.0);
+  opt.features.tangent_junctions = a.get_choice("tangent-junctions", "on", {"on", "off"}) == "on";
   opt.long_edges.ratio = a.get_double("long-edge-ratio", opt.long_edges.ratio, 0.0, 1e9);
   opt.validity.quality_floor = a.get_double("min-jacobian", opt.validity.quality_floor, 0.0, 0.9);
   const std::string support = a.get_choice("support", "auto", {"auto", "on", "off"});

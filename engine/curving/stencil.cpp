@@ -162,10 +162,11 @@ void edge_region_vertices(const Mesh& mesh, const Topology& T, const std::vector
     begin = end;
   }
   out.clear();
+  seen.clear();
   for (int f : faces)
-    for (int j = 0; j < 3; ++j) out.push_back(mesh.F(f, j));
+    for (int j = 0; j < 3; ++j)
+      if (seen.insert(mesh.F(f, j))) out.push_back(mesh.F(f, j));
   std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
 }
 
 }  // namespace hocurve

@@ -119,7 +119,7 @@ struct StencilScratch {
 
 /// The vertices (ascending) of `rings` face rings around interior edge e: its faces, then at
 /// each step the faces across the region's manifold edges not marked in `wall`.
-/// `faces` and `seen` are working memory.
+/// `faces` and `seen` are working memory (`seen` holds faces, then vertices).
 void edge_region_vertices(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e, int rings,
                           std::vector<int>& faces, StampSet& seen, std::vector<int>& out);
 
