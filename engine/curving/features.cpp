@@ -4,9 +4,6 @@
 #include "engine/curving/stencil.hpp"
 #include "engine/curving/tangent_junctions.hpp"
 
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-
 #include <Eigen/Geometry>
 #include <Eigen/QR>
 #include <algorithm>
@@ -106,99 +103,6 @@ double kink_angle_deg(const Mesh& mesh, const Topology& T, const std::vector<cha
   const Eigen::VectorXd c = A.colPivHouseholderQr().solve(z);
   if (!c.allFinite()) return 0.0;
   return 2 * std::atan(std::abs(c[6])) * 180.0 / std::numbers::pi;
-}
-
-/// FeatureOptions::tangent_junctions: the edges (not yet features, dihedral angle theta below
-/// angle_deg) whose curvature_jump passes, kept where they form connected sets of at least
-/// junction_min_edges edges (a junction is a curve; isolated passes are noise).
-std::vector<char> tangent_junction_edges(const Mesh& mesh, const Topology& T, const std::vector<char>& wall,
-                                         const std::vector<double>& theta, const FeatureOptions& opt) {
-  const int ne = T.num_edges(), nv = mesh.num_vertices();
-  // A jump of junction_min_jump / h bends the curved side by about half that many radians per
-  // edge: edges with no dihedral angle of a quarter of it at their ends are not fitted (on a
-  // finely meshed smooth surface, none is).
-  std::vector<double> bend(nv, 0.0);
-  for (int e = 0; e < ne; ++e)
-    for (int j = 0; j < 2; ++j) bend[T.E(e, j)] = std::max(bend[T.E(e, j)], theta[e]);
-  const double min_bend = 0.25 * opt.junction_min_jump * 180 / std::numbers::pi;
-  // pass: 2 passes; 1 passes junction_weak_ratio only (such edges may extend a curve's free end:
-  // the end edges' stencils reach the next junction and fit less well).
-  std::vector<char> pass(ne, 0);
-  tbb::enumerable_thread_specific<JumpScratch> scratch;
-  tbb::parallel_for(tbb::blocked_range<int>(0, ne, 256), [&](const tbb::blocked_range<int>& r) {
-    JumpScratch& js = scratch.local();
-    for (int e = r.begin(); e < r.end(); ++e) {
-      if (wall[e] || T.edge_faces[e].size() != 2 || theta[e] > opt.angle_deg ||
-          std::max(bend[T.E(e, 0)], bend[T.E(e, 1)]) < min_bend)
-        continue;
-      const CurvatureJump J = curvature_jump(mesh, T, wall, e, js);
-      if (J.determined && J.jump >= opt.junction_min_jump && J.jump <= opt.junction_max_jump)
-        pass[e] = J.residual_ratio <= opt.junction_max_ratio ? 2 : J.residual_ratio <= opt.junction_weak_ratio ? 1 : 0;
-    }
-  });
-  // Connected sets of passing edges (through shared vertices): union-find on vertices.
-  std::vector<int> parent(nv);
-  for (int v = 0; v < nv; ++v) parent[v] = v;
-  auto find = [&](int v) {
-    while (parent[v] != v) v = parent[v] = parent[parent[v]];
-    return v;
-  };
-  for (int e = 0; e < ne; ++e)
-    if (pass[e] == 2) parent[find(T.E(e, 0))] = find(T.E(e, 1));
-  std::vector<int> size(nv, 0);
-  for (int e = 0; e < ne; ++e)
-    if (pass[e] == 2) ++size[find(T.E(e, 0))];
-  std::vector<char> out(ne, 0);
-  std::vector<int> valence(nv, 0);  // junction and wall edges at each vertex
-  for (int e = 0; e < ne; ++e) {
-    out[e] = pass[e] == 2 && size[find(T.E(e, 0))] >= opt.junction_min_edges;
-    if (out[e] || wall[e]) ++valence[T.E(e, 0)], ++valence[T.E(e, 1)];
-  }
-  // A junction's end edges, whose stencils reach the next junction, fit less well: from each
-  // free end, follow the weaker edges that continue the curve straight on (within
-  // corner_angle_deg) until they meet another feature.
-  const double cos_max = std::cos(opt.corner_angle_deg * std::numbers::pi / 180);
-  for (int e0 = 0; e0 < ne; ++e0) {
-    if (!out[e0]) continue;
-    for (int side = 0; side < 2; ++side) {
-      int prev = T.E(e0, 1 - side), v = T.E(e0, side);
-      for (int step = 0; step < 8 && valence[v] == 1; ++step) {
-        const Eigen::Vector3d d = (mesh.V.row(v) - mesh.V.row(prev)).normalized();
-        int best = -1;
-        double best_cos = cos_max;
-        auto [b, end] = T.edges_of(v);
-        for (const int* it = b; it != end; ++it) {
-          if (pass[*it] == 0 || out[*it]) continue;
-          const double c = d.dot((mesh.V.row(T.other(*it, v)) - mesh.V.row(v)).normalized());
-          if (c > best_cos) best_cos = c, best = *it;
-        }
-        if (best < 0) break;
-        out[best] = 1;
-        const int w = T.other(best, v);
-        ++valence[v], ++valence[w];
-        prev = v, v = w;
-      }
-    }
-  }
-  // A junction borders a face: it ends on other junctions or features. Peel the curves that
-  // still end in the open (a partial find, where the stencils reach across narrow faces, does
-  // more harm than none: fits then reach around the free ends).
-  std::vector<int> open;
-  for (int v = 0; v < nv; ++v)
-    if (valence[v] == 1) open.push_back(v);
-  while (!open.empty()) {
-    const int v = open.back();
-    open.pop_back();
-    auto [b, end] = T.edges_of(v);
-    for (const int* it = b; it != end; ++it)
-      if (out[*it]) {
-        out[*it] = 0;
-        const int w = T.other(*it, v);
-        --valence[v];
-        if (--valence[w] == 1) open.push_back(w);
-      }
-  }
-  return out;
 }
 
 }  // namespace

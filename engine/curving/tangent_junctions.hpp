@@ -5,6 +5,7 @@
 #pragma once
 #include "engine/core/mesh.hpp"
 #include "engine/core/topology.hpp"
+#include "engine/curving/features.hpp"
 #include "engine/curving/stencil.hpp"
 
 #include <vector>
@@ -32,5 +33,11 @@ struct JumpScratch {
 /// edge length.
 CurvatureJump curvature_jump(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e,
                              JumpScratch& scratch);
+
+/// FeatureOptions::tangent_junctions: per edge, 1 where it is a junction edge. `wall`: the
+/// features found so far (not tested, and stencils do not cross them); `theta`: per edge, its
+/// dihedral angle in degrees.
+std::vector<char> tangent_junction_edges(const Mesh& mesh, const Topology& T, const std::vector<char>& wall,
+                                         const std::vector<double>& theta, const FeatureOptions& opt);
 
 }  // namespace hocurve
