@@ -59,23 +59,18 @@ bool unreliable_cap(const Mesh& mesh, const Topology& T, int f, double cap_deg, 
 /// of the faces at its ends) scaled by the edge length, to the vertices of three face rings around the edge
 /// grown without crossing the edges in `wall` (features already found); returns 2 atan|k|.
 double kink_angle_deg(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e, bool cap) {
-  const int a = T.E(e, 0), b = T.E(e, 1);
-  const Eigen::Vector3d pa = mesh.V.row(a), pb = mesh.V.row(b);
-  const double h = (pb - pa).norm();
+  // A cap edge's two faces fold back on each other: its normal is its ends' vertex normal.
   Eigen::Vector3d n = Eigen::Vector3d::Zero();
-  if (!cap) {
-    n = face_normal(mesh, T.edge_faces[e][0]).normalized() + face_normal(mesh, T.edge_faces[e][1]).normalized();
-  } else {
-    for (int v : {a, b}) {
+  if (cap)
+    for (int v : {T.E(e, 0), T.E(e, 1)}) {
       auto [fb, fe] = T.faces_of(v);
       for (const int* f = fb; f != fe; ++f) n += face_normal(mesh, *f);
     }
-  }
-  if (!(h > 0) || !(n.norm() > 1e-12)) return 0.0;
-  n.normalize();
-  Eigen::Vector3d t = pb - pa;
-  t = (t - t.dot(n) * n).normalized();
-  const Eigen::Vector3d s = n.cross(t), o = 0.5 * (pa + pb);
+  const EdgeFrame fr = cap ? edge_frame(mesh, T, e, n) : edge_frame(mesh, T, e);
+  if (!fr.valid) return 0.0;
+  const Eigen::Vector3d &t = fr.t, &s = fr.s, &o = fr.o;
+  const double h = fr.h;
+  n = fr.n;
   std::vector<int> faces, ring;
   StampSet seen;
   edge_region_vertices(mesh, T, wall, e, 3, faces, seen, ring);

@@ -54,12 +54,18 @@ struct FeatureOptions {
   /// junctions than across them (a cylinder's r = 0.12 rim fillets at h = 0.05, even given as
   /// CAD faces: 6.0e-3 against 6.1e-4). Set on a Gmsh filleted box (h = 0.05: exactly its 360
   /// CAD face borders; P4 6.9e-4 -> 3.1e-5); none on the analytic and CAD benchmark meshes.
+  /// Last, a curved face whose every vertex is within junction_min_width edge hops of its border
+  /// loses its junctions with other curved faces: too narrow for fits of its own, it fits better
+  /// across them (filleted box r = 0.25, h = 0.05, vertical fillets two edges tall: P4 9.0e-4
+  /// with them, 4.9e-4 without, 4.7e-4 with no junction at all; a width of 2 took r = 0.15's
+  /// 3.1e-5 back to 6.9e-4).
   bool tangent_junctions = true;
   double junction_min_jump = 0.05;
   double junction_max_jump = 0.4;
   double junction_max_ratio = 0.3;
   double junction_weak_ratio = 0.7;
   int junction_min_edges = 3;
+  int junction_min_width = 1;
   /// Open curves made only of sharp edges, with a free end (feature valence 1) and fewer than
   /// this many edges, are dropped as noise (scanned meshes have many); 0 keeps every curve.
   int min_dangling_edges = 0;

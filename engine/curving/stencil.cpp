@@ -2,6 +2,7 @@
 
 #include "engine/core/union_find.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <numeric>
 
@@ -143,6 +144,29 @@ Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w
   }
   std::sort(S.faces.begin(), S.faces.end());
   return S;
+}
+
+EdgeFrame edge_frame(const Mesh& mesh, const Topology& T, int e, Eigen::Vector3d normal) {
+  EdgeFrame F;
+  const Eigen::Vector3d pa = mesh.V.row(T.E(e, 0)), pb = mesh.V.row(T.E(e, 1));
+  F.h = (pb - pa).norm();
+  if (!(F.h > 0) || !(normal.norm() > 1e-12)) return F;
+  F.n = normal.normalized();
+  F.t = ((pb - pa) - (pb - pa).dot(F.n) * F.n).normalized();
+  F.s = F.n.cross(F.t);
+  F.o = 0.5 * (pa + pb);
+  F.valid = F.t.allFinite();
+  return F;
+}
+
+EdgeFrame edge_frame(const Mesh& mesh, const Topology& T, int e) {
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  for (int f : T.edge_faces[e]) {
+    const Eigen::Vector3d p0 = mesh.V.row(mesh.F(f, 0)), p1 = mesh.V.row(mesh.F(f, 1)), p2 = mesh.V.row(mesh.F(f, 2));
+    const Eigen::Vector3d m = (p1 - p0).cross(p2 - p0);
+    if (m.norm() > 0) n += m.normalized();
+  }
+  return edge_frame(mesh, T, e, n);
 }
 
 void edge_region_vertices(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e, int rings,

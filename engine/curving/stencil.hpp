@@ -123,6 +123,18 @@ struct StencilScratch {
 void edge_region_vertices(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e, int rings,
                           std::vector<int>& faces, StampSet& seen, std::vector<int>& out);
 
+/// Local frame of the fits around interior edge e (curvature_jump, the kink test): origin o at
+/// its midpoint, n the given normal normalised, t the edge's direction with its n part removed,
+/// s = n x t, h its length. valid is false for a zero-length edge or a zero normal.
+struct EdgeFrame {
+  Eigen::Vector3d o, t, s, n;
+  double h = 0;
+  bool valid = false;
+};
+EdgeFrame edge_frame(const Mesh& mesh, const Topology& T, int e, Eigen::Vector3d normal);
+/// The same with normal the sum of its two faces' unit normals.
+EdgeFrame edge_frame(const Mesh& mesh, const Topology& T, int e);
+
 /// grow_stencil with caller-provided working memory (the same stencil, no hashing).
 Stencil grow_stencil(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
                      const StencilOptions& opt, StencilScratch& scratch);

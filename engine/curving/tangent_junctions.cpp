@@ -1,5 +1,7 @@
 #include "engine/curving/tangent_junctions.hpp"
 
+#include "engine/core/union_find.hpp"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <tbb/enumerable_thread_specific.h>
@@ -15,21 +17,10 @@ CurvatureJump curvature_jump(const Mesh& mesh, const Topology& T, const std::vec
                              JumpScratch& scratch) {
   CurvatureJump J;
   if (T.edge_faces[e].size() != 2) return J;
-  const int a = T.E(e, 0), b = T.E(e, 1);
-  const Eigen::Vector3d pa = mesh.V.row(a), pb = mesh.V.row(b);
-  const double h = (pb - pa).norm();
-  auto unit_normal = [&](int f) {
-    const Eigen::Vector3d p0 = mesh.V.row(mesh.F(f, 0)), p1 = mesh.V.row(mesh.F(f, 1)), p2 = mesh.V.row(mesh.F(f, 2));
-    const Eigen::Vector3d n = (p1 - p0).cross(p2 - p0);
-    const double l = n.norm();
-    return l > 0 ? Eigen::Vector3d(n / l) : Eigen::Vector3d::Zero();
-  };
-  Eigen::Vector3d n = unit_normal(T.edge_faces[e][0]) + unit_normal(T.edge_faces[e][1]);
-  if (!(h > 0) || !(n.norm() > 1e-12)) return J;
-  n.normalize();
-  Eigen::Vector3d t = pb - pa;
-  t = (t - t.dot(n) * n).normalized();
-  const Eigen::Vector3d s = n.cross(t), o = 0.5 * (pa + pb);
+  const EdgeFrame fr = edge_frame(mesh, T, e);
+  if (!fr.valid) return J;
+  const Eigen::Vector3d &t = fr.t, &s = fr.s, &n = fr.n, &o = fr.o;
+  const double h = fr.h;
   std::vector<int>& ring = scratch.vertices;
   edge_region_vertices(mesh, T, wall, e, 3, scratch.faces, scratch.seen, ring);
   const int k = static_cast<int>(ring.size());
@@ -68,6 +59,50 @@ CurvatureJump curvature_jump(const Mesh& mesh, const Topology& T, const std::vec
   return J;
 }
 
+// A curved face too narrow for a fit of its own (every vertex within min_width edge hops of its
+// border: a fillet two edges long between corner spheres) fits better across its borders than
+// between them: the junctions between it and other curved faces are dropped (those with a flat
+// face stay: a plane is fitted exactly by any degree). True when any was dropped.
+static bool drop_narrow_curved_regions(const Mesh& mesh, const Topology& T, const std::vector<char>& wall,
+                                       const std::vector<double>& theta, double flat_deg, int min_width,
+                                       std::vector<char>& out) {
+  const int ne = T.num_edges(), nv = mesh.num_vertices(), nf = mesh.num_faces();
+  auto inner = [&](int e) { return !out[e] && !wall[e] && T.edge_faces[e].size() == 2; };
+  // Faces: regions across inner edges (union-find).
+  std::vector<int> parent(nf);
+  for (int f = 0; f < nf; ++f) parent[f] = f;
+  auto find = [&](int f) { return find_root(parent, f); };
+  for (int e = 0; e < ne; ++e)
+    if (inner(e)) parent[find(T.edge_faces[e][0])] = find(T.edge_faces[e][1]);
+  // Vertices: edge hops from the nearest border vertex (breadth first over inner edges).
+  std::vector<int> hops(nv, -1), queue;
+  for (int e = 0; e < ne; ++e)
+    if (!inner(e))
+      for (int j = 0; j < 2; ++j)
+        if (hops[T.E(e, j)] < 0) hops[T.E(e, j)] = 0, queue.push_back(T.E(e, j));
+  for (std::size_t i = 0; i < queue.size(); ++i) {
+    const int v = queue[i];
+    auto [b, end] = T.edges_of(v);
+    for (const int* it = b; it != end; ++it) {
+      const int w = T.other(*it, v);
+      if (inner(*it) && hops[w] < 0) hops[w] = hops[v] + 1, queue.push_back(w);
+    }
+  }
+  std::vector<int> width(nf, 0);   // per region root: largest hop count of its vertices
+  std::vector<char> curved(nf, 0);  // per region root: an inner edge bends by flat_deg or more
+  for (int f = 0; f < nf; ++f)
+    for (int j = 0; j < 3; ++j) width[find(f)] = std::max(width[find(f)], hops[mesh.F(f, j)]);
+  for (int e = 0; e < ne; ++e)
+    if (inner(e) && theta[e] >= flat_deg) curved[find(T.edge_faces[e][0])] = 1;
+  bool dropped = false;
+  for (int e = 0; e < ne; ++e) {
+    if (!out[e] || T.edge_faces[e].size() != 2) continue;
+    const int ra = find(T.edge_faces[e][0]), rb = find(T.edge_faces[e][1]);
+    if (curved[ra] && curved[rb] && std::min(width[ra], width[rb]) <= min_width) out[e] = 0, dropped = true;
+  }
+  return dropped;
+}
+
 // The steps are those of FeatureOptions::tangent_junctions: passing edges, connected sets of at
 // least junction_min_edges (a junction is a curve; isolated passes are noise), free ends
 // continued, curves still ending in the open dropped.
@@ -99,10 +134,7 @@ std::vector<char> tangent_junction_edges(const Mesh& mesh, const Topology& T, co
   // Connected sets of passing edges (through shared vertices): union-find on vertices.
   std::vector<int> parent(nv);
   for (int v = 0; v < nv; ++v) parent[v] = v;
-  auto find = [&](int v) {
-    while (parent[v] != v) v = parent[v] = parent[parent[v]];
-    return v;
-  };
+  auto find = [&](int v) { return find_root(parent, v); };
   for (int e = 0; e < ne; ++e)
     if (pass[e] == 2) parent[find(T.E(e, 0))] = find(T.E(e, 1));
   std::vector<int> size(nv, 0);
@@ -143,20 +175,29 @@ std::vector<char> tangent_junction_edges(const Mesh& mesh, const Topology& T, co
   // A junction borders a face: it ends on other junctions or features. Peel the curves that
   // still end in the open (a partial find, where the stencils reach across narrow faces, does
   // more harm than none: fits then reach around the free ends).
-  std::vector<int> open;
-  for (int v = 0; v < nv; ++v)
-    if (valence[v] == 1) open.push_back(v);
-  while (!open.empty()) {
-    const int v = open.back();
-    open.pop_back();
-    auto [b, end] = T.edges_of(v);
-    for (const int* it = b; it != end; ++it)
-      if (out[*it]) {
-        out[*it] = 0;
-        const int w = T.other(*it, v);
-        --valence[v];
-        if (--valence[w] == 1) open.push_back(w);
-      }
+  auto peel = [&] {
+    std::vector<int> open;
+    for (int v = 0; v < nv; ++v)
+      if (valence[v] == 1) open.push_back(v);
+    while (!open.empty()) {
+      const int v = open.back();
+      open.pop_back();
+      auto [b, end] = T.edges_of(v);
+      for (const int* it = b; it != end; ++it)
+        if (out[*it]) {
+          out[*it] = 0;
+          const int w = T.other(*it, v);
+          --valence[v];
+          if (--valence[w] == 1) open.push_back(w);
+        }
+    }
+  };
+  peel();
+  if (drop_narrow_curved_regions(mesh, T, wall, theta, min_bend, opt.junction_min_width, out)) {
+    std::fill(valence.begin(), valence.end(), 0);
+    for (int e = 0; e < ne; ++e)
+      if (out[e] || wall[e]) ++valence[T.E(e, 0)], ++valence[T.E(e, 1)];
+    peel();
   }
   return out;
 }

@@ -585,6 +585,32 @@ TEST_CASE("tangent junctions: the filleted box's face borders found from the tri
   }
 }
 
+TEST_CASE("tangent junctions: a curved face too narrow for its own fits is fitted across its borders") {
+  // r = 0.25: the vertical fillets are 0.1 (two edges at h = 0.05) tall between corner spheres.
+  // Their borders with the short side planes are not found (the stencils reach both ends), so
+  // those planes and fillets make one region every vertex of which is within an edge of its
+  // border; fitted on their own, the fillets came out worse than with no junction at all.
+  const double r = 0.25, h = 0.05;
+  const Dist dist = filletbox_distance(r);
+  Mesh stl = filletbox_mesh(h, r);
+  stl.face_entity.resize(0);
+  CurveOptions o;
+  const CurveResult R = curve_mesh(stl, o);
+  o.features.junction_min_width = 0;
+  const CurveResult narrow = curve_mesh(stl, o);
+  o.features.tangent_junctions = false;
+  const CurveResult none = curve_mesh(stl, o);
+  const double err = surface_error(R.mesh, dist), err_narrow = surface_error(narrow.mesh, dist),
+               err_none = surface_error(none.mesh, dist);
+  MESSAGE("P4 " << err << " (" << R.features.junction_edges << " junction edges); narrow faces kept: " << err_narrow
+                << " (" << narrow.features.junction_edges << "); no junctions: " << err_none);
+  CHECK(R.features.junction_edges > 0);
+  CHECK(R.features.junction_edges < narrow.features.junction_edges);
+  CHECK(err < 1.25 * err_none);
+  CHECK(err_narrow > 1.5 * err);
+  check_result(stl, R);
+}
+
 TEST_CASE("long edges of CAD exports take their PN triangle; gradual meshes have none") {
   // t13_data: 48 mm extrusion-wall strips meet 2.6 mm fillet strips at 15 degrees; the corner fits
   // follow the fillets and bulged the walls by 4.4 mm. hinge_netgen: the same with Netgen's fans.
