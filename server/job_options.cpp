@@ -82,7 +82,7 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
   static const std::vector<std::string> known = {"mode",          "order",     "nodes",         "format",
                                                  "binary",        "faces",     "ratio",         "max_deviation",
                                                  "tolerance",     "max_faces", "feature_angle", "long_edge_ratio",
-                                                 "min_jacobian",  "redecimate"};
+                                                 "min_jacobian",  "redecimate", "tangent_junctions"};
   Errors err;
   for (auto& [k, v] : raw.items())
     if (std::find(known.begin(), known.end(), k) == known.end()) {
@@ -127,7 +127,7 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
   number("min_jacobian", [](double x) { return x >= 0 && x <= 0.9; }, "a number in [0, 0.9] (0: off)");
 
   if (mode == "coarsen") {
-    for (const char* k : {"nodes", "format", "binary"})
+    for (const char* k : {"nodes", "format", "binary", "tangent_junctions"})
       if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=curve only");
     bool has_faces = raw.contains("faces"), has_ratio = raw.contains("ratio");
     if (has_faces == has_ratio) err.add(has_faces ? "ratio" : "faces", "mode=coarsen needs exactly one of faces or ratio");
@@ -161,6 +161,12 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
     if (raw.contains("binary") && !parse_bool(raw["binary"], binary))
       err.add("binary", "binary must be 0/1/true/false, got " + as_text(raw["binary"]));
     out["binary"] = binary;
+    bool junctions = true;  // kept only when given: the CLI's default is on
+    if (raw.contains("tangent_junctions")) {
+      if (!parse_bool(raw["tangent_junctions"], junctions))
+        err.add("tangent_junctions", "tangent_junctions must be 0/1/true/false, got " + as_text(raw["tangent_junctions"]));
+      out["tangent_junctions"] = junctions;
+    }
   }
   if (!err.list.empty()) {
     std::string detail;
@@ -189,6 +195,8 @@ std::vector<std::string> worker_argv(const std::string& program, const nlohmann:
   } else {
     a.insert(a.end(), {"--nodes", o.value("nodes", "equispaced"), "--format", o.value("format", "msh41")});
     if (o.value("binary", false)) a.push_back("--binary");
+    if (o.contains("tangent_junctions"))
+      a.insert(a.end(), {"--tangent-junctions", o["tangent_junctions"].get<bool>() ? "on" : "off"});
     a.insert(a.end(), {"--threads", std::to_string(threads)});
   }
   if (o.contains("feature_angle")) a.insert(a.end(), {"--feature-angle", number("feature_angle")});

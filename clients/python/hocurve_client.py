@@ -232,6 +232,7 @@ def main(argv=None):
     s.add_argument("--feature-angle", type=float, dest="feature_angle")
     s.add_argument("--long-edge-ratio", type=float, dest="long_edge_ratio")
     s.add_argument("--min-jacobian", type=float, dest="min_jacobian")
+    s.add_argument("--tangent-junctions", choices=("on", "off"), dest="tangent_junctions")
     s.add_argument("--idempotency-key")
     s.add_argument("--wait", action="store_true", help="wait with a progress bar")
     s.add_argument("-o", "--output", help="with --wait: download the result here")
@@ -260,6 +261,8 @@ def main(argv=None):
                     if getattr(args, k) is not None}
             if args.binary:
                 opts["binary"] = True
+            if args.tangent_junctions is not None:
+                opts["tangent_junctions"] = args.tangent_junctions == "on"
             job = c.submit(args.mesh, opts, idempotency_key=args.idempotency_key, retries=5)
             if not args.wait:
                 out.write(json.dumps(job, indent=2) + "\n")
