@@ -66,6 +66,7 @@ CurvatureJump curvature_jump(const Mesh& mesh, const Topology& T, const std::vec
 static bool drop_narrow_curved_regions(const Mesh& mesh, const Topology& T, const std::vector<char>& wall,
                                        const std::vector<double>& theta, double flat_deg, int min_width,
                                        std::vector<char>& out) {
+  if (std::find(out.begin(), out.end(), 1) == out.end()) return false;
   const int ne = T.num_edges(), nv = mesh.num_vertices(), nf = mesh.num_faces();
   auto inner = [&](int e) { return !out[e] && !wall[e] && T.edge_faces[e].size() == 2; };
   // Faces: regions across inner edges (union-find).
@@ -141,11 +142,14 @@ std::vector<char> tangent_junction_edges(const Mesh& mesh, const Topology& T, co
   for (int e = 0; e < ne; ++e)
     if (pass[e] == 2) ++size[find(T.E(e, 0))];
   std::vector<char> out(ne, 0);
+  for (int e = 0; e < ne; ++e) out[e] = pass[e] == 2 && size[find(T.E(e, 0))] >= opt.junction_min_edges;
   std::vector<int> valence(nv, 0);  // junction and wall edges at each vertex
-  for (int e = 0; e < ne; ++e) {
-    out[e] = pass[e] == 2 && size[find(T.E(e, 0))] >= opt.junction_min_edges;
-    if (out[e] || wall[e]) ++valence[T.E(e, 0)], ++valence[T.E(e, 1)];
-  }
+  auto count_valence = [&] {
+    std::fill(valence.begin(), valence.end(), 0);
+    for (int e = 0; e < ne; ++e)
+      if (out[e] || wall[e]) ++valence[T.E(e, 0)], ++valence[T.E(e, 1)];
+  };
+  count_valence();
   // A junction's end edges, whose stencils reach the next junction, fit less well: from each
   // free end, follow the weaker edges that continue the curve straight on (within
   // corner_angle_deg) until they meet another feature.
@@ -194,9 +198,7 @@ std::vector<char> tangent_junction_edges(const Mesh& mesh, const Topology& T, co
   };
   peel();
   if (drop_narrow_curved_regions(mesh, T, wall, theta, min_bend, opt.junction_min_width, out)) {
-    std::fill(valence.begin(), valence.end(), 0);
-    for (int e = 0; e < ne; ++e)
-      if (out[e] || wall[e]) ++valence[T.E(e, 0)], ++valence[T.E(e, 1)];
+    count_valence();
     peel();
   }
   return out;
