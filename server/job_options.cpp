@@ -157,16 +157,16 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
     if (format != "msh41" && format != "msh22")
       err.add("format", "format must be 'msh41' or 'msh22', got '" + format + "'");
     out["format"] = format;
-    bool binary = false;
-    if (raw.contains("binary") && !parse_bool(raw["binary"], binary))
-      err.add("binary", "binary must be 0/1/true/false, got " + as_text(raw["binary"]));
+    // An optional 0/1/true/false `key` read into value; false when absent.
+    const auto flag = [&](const char* key, bool& value) {
+      if (!raw.contains(key)) return false;
+      if (!parse_bool(raw[key], value)) err.add(key, std::string(key) + " must be 0/1/true/false, got " + as_text(raw[key]));
+      return true;
+    };
+    bool binary = false, junctions = true;
+    flag("binary", binary);
     out["binary"] = binary;
-    bool junctions = true;  // kept only when given: the CLI's default is on
-    if (raw.contains("tangent_junctions")) {
-      if (!parse_bool(raw["tangent_junctions"], junctions))
-        err.add("tangent_junctions", "tangent_junctions must be 0/1/true/false, got " + as_text(raw["tangent_junctions"]));
-      out["tangent_junctions"] = junctions;
-    }
+    if (flag("tangent_junctions", junctions)) out["tangent_junctions"] = junctions;  // only when given: the CLI's default is on
   }
   if (!err.list.empty()) {
     std::string detail;
