@@ -800,13 +800,18 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
       for (int i = 0; i < k; ++i) wt[i] = std::pow(dist[i] * dist[i] / mean2 + 0.01, -0.5 * p);
     }
 
-    const bool use_reference = opt.reference_torus && !one_sided && k >= opt.reference_min_points;
+    // One-sided wedges fit over the plane (reference_torus), but the agreement pass offers them
+    // their own torus or quadric too (FitScratch::one_sided_torus).
+    const bool torus_candidate = one_sided && scratch.one_sided_torus;
+    const bool use_reference =
+        opt.reference_torus && (!one_sided || torus_candidate) && k >= opt.reference_min_points;
     LocalFit trial = use_reference ? reference_fit(o, n0, h, P, wt, p, opt) : solve_height_fit(o, n0, h, P, wt, p, opt);
     // One-sided wedges (a vertex on a feature) have an area-weighted normal biased at O(h):
     // those refit in the frame of the first fit's normal.
     // Only well-posed first fits (degree kept, pivots not tiny) give a trustworthy gradient.
     const bool well_posed = trial.degree == p && trial.pivot_ratio >= opt.support_condition;
-    if ((opt.refine_normal || (one_sided && opt.refine_one_sided && well_posed)) && trial.degree >= 1) {
+    if ((opt.refine_normal || (one_sided && opt.refine_one_sided && well_posed)) && trial.degree >= 1 &&
+        !torus_candidate) {
       Eigen::Vector3d n1 = trial.n - trial.c[0] * trial.t1 - trial.c[1] * trial.t2;
       if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) {
         n1.normalize();
@@ -932,21 +937,24 @@ double disagreement(const Mesh& mesh, const Wedges& W, int w, const LocalFit& F,
       const int other = W.corner_wedge(f, j);
       if (other == w || W.one_sided(other)) continue;
       for (const Eigen::Vector3d& x : {Eigen::Vector3d((a + b) / 2), Eigen::Vector3d((b + c) / 2),
-                                       Eigen::Vector3d((a + c) / 2), Eigen::Vector3d((a + b + c) / 3)})
-        worst = std::max(worst, (F.project(x) - fits[other].project(x)).norm());
+                                       Eigen::Vector3d((a + c) / 2), Eigen::Vector3d((a + b + c) / 3)}) {
+        const Eigen::Vector3d y = F.project(x);
+        worst = std::max(worst, (fits[other].project(y) - y).norm());
+      }
     }
   }
   return worst;
 }
 
-/// FitOptions::one_sided_quadric_agreement: one-sided wedges refit with the quadric's gates open,
-/// and the refit kept where it agrees much better with the two-sided neighbours' fits. Only
-/// one-sided fits change and only two-sided ones are read, so the order does not matter.
-/// gate_refused[w]: the first pass met a gate on wedge w (elsewhere the open refit is that fit).
-long long adopt_agreeing_quadrics(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
-                                  const SupportPoints* support, const std::vector<int>& sstart,
-                                  const std::vector<int>& sindex, const FitOptions& opt,
-                                  const std::vector<char>& gate_refused, std::vector<LocalFit>& fits) {
+/// FitOptions::one_sided_quadric_agreement: one-sided wedges refit with the quadric's gates open
+/// (where the first pass met one) and over their half disc's torus (reference_fit); the candidate
+/// that agrees best with the two-sided neighbours' fits is kept where it agrees much better than
+/// the wedge's fit. Only one-sided fits change and only two-sided ones are read, so the order
+/// does not matter. gate_refused[w]: the first pass met a gate on wedge w.
+long long adopt_agreeing_fits(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
+                              const SupportPoints* support, const std::vector<int>& sstart,
+                              const std::vector<int>& sindex, const FitOptions& opt,
+                              const std::vector<char>& gate_refused, std::vector<LocalFit>& fits) {
   if (!opt.one_sided_quadric || !(opt.one_sided_quadric_agreement > 0)) return 0;
   FitOptions open = opt;
   open.one_sided_quadric_gap = std::numeric_limits<double>::infinity();
@@ -958,12 +966,24 @@ long long adopt_agreeing_quadrics(const Mesh& mesh, const Topology& T, const Wed
     FitScratch& s = scratch.local();
     for (int w = r.begin(); w < r.end(); ++w) {
       const int d = wedge_degree(W, w, p, opt);
-      if (!gate_refused[w] || !W.one_sided(w) || fits[w].quadric_ref || fits[w].degree != d) continue;
-      LocalFit q = fit_wedge(mesh, T, W, w, d, support, sstart, sindex, open, s);
-      if (!q.quadric_ref) continue;
-      const double plane_off = disagreement(mesh, W, w, fits[w], fits);
-      if (plane_off > 0 && disagreement(mesh, W, w, q, fits) < opt.one_sided_quadric_agreement * plane_off) {
-        fits[w] = std::move(q);
+      if (!W.one_sided(w) || fits[w].identity) continue;
+      const double current = disagreement(mesh, W, w, fits[w], fits);
+      if (!(current > 1e-6 * fits[w].h)) continue;  // agrees to round-off already
+      double best = opt.one_sided_quadric_agreement * current;
+      LocalFit chosen;
+      auto consider = [&](LocalFit q) {
+        if (q.degree != d || !(q.quadric_ref || q.k2 != 0)) return;
+        const double off = disagreement(mesh, W, w, q, fits);
+        if (off < best) best = off, chosen = std::move(q);
+      };
+      if (gate_refused[w] && !fits[w].quadric_ref && fits[w].degree == d) consider(fit_wedge(mesh, T, W, w, d, support, sstart, sindex, open, s));
+      if (opt.one_sided_torus) {
+        s.one_sided_torus = true;
+        consider(fit_wedge(mesh, T, W, w, d, support, sstart, sindex, opt, s));
+        s.one_sided_torus = false;
+      }
+      if (chosen.degree == d) {
+        fits[w] = std::move(chosen);
         ++adopted;
       }
     }
@@ -1012,7 +1032,7 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
       gate_refused[w] = s.quadric_gate_refused;
     }
   });
-  R.agreeing_quadrics = adopt_agreeing_quadrics(mesh, T, W, p, support, sstart, sindex, opt, gate_refused, R.fits);
+  R.agreeing_fits = adopt_agreeing_fits(mesh, T, W, p, support, sstart, sindex, opt, gate_refused, R.fits);
   R.degree_histogram.assign(p + 1, 0);
   double pts = 0;
   for (const auto& f : R.fits) {

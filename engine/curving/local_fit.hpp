@@ -97,6 +97,18 @@ struct FitOptions {
   /// king (0.460%, where the quadric bends away), screw, T20, capped cylinder and the other shared
   /// meshes unchanged.
   double one_sided_quadric_agreement = 0.5;
+  /// The same agreement pass also offers every one-sided wedge its fit over the torus (or
+  /// quadric) of its own half disc (reference_fit, as two-sided wedges fit). Where a curved strip
+  /// turns 90 degrees between two feature curves (a fillet given as a CAD face), heights over the
+  /// plane or the quadric at one border are singular at the other (the surface turns vertical):
+  /// those fits were 0.05-0.08 h off their own points, the torus chart's arc lengths are not.
+  /// The agreement is the distance from the candidate's surface points to the neighbours' fits
+  /// (not between two projections of one point, which differ tangentially on curved strips).
+  /// Measured P4 (bench/cad_sweep.py): cylinder with r = 0.12 rim fillets given as CAD faces,
+  /// h = 0.05: 6.0e-3 (worse than linear, 4.0e-3) -> 2.2e-5; filleted box from the STL, h = 0.05:
+  /// 3.1e-5 -> 7.5e-6; half torus h = 0.1 / 0.05: 2.2e-5 / 5.7e-7 -> 1.2e-5 / 3.0e-7; screw, T20,
+  /// capped cylinder, cone, cut sphere, cross hole, capsule unchanged.
+  bool one_sided_torus = true;
   /// Surface fits at features have degree at most feature_max_degree (feature_fit_degree()):
   /// one-sided wedges (fit_wedges) and band wedges (refit_band_wedges). At degree 6 a half-disc
   /// stencil needs 54 points, reaches max_rings (so no quadric) and wraps far round curved faces;
@@ -278,7 +290,7 @@ struct FitResult {
   std::vector<long long> degree_histogram;  ///< [d] = number of fits of final degree d
   long long downgraded = 0;               ///< fits below the requested degree
   long long with_support = 0;             ///< fits that used support points
-  long long agreeing_quadrics = 0;        ///< one-sided wedges given their quadric fit by one_sided_quadric_agreement
+  long long agreeing_fits = 0;            ///< one-sided wedges given a quadric or torus fit by one_sided_quadric_agreement
   double mean_points = 0;
   double seconds = 0;
 };
@@ -297,6 +309,9 @@ struct FitScratch {
   /// Set (never cleared) when a one-sided quadric fit was refused by a gate the agreement pass
   /// opens (one_sided_quadric_gap, or the stencil at max_rings): only those wedges are refit.
   bool quadric_gate_refused = false;
+  /// One-sided wedges fit over their stencil's torus or quadric (reference_fit) when it has full
+  /// degree (the agreement pass's candidate, FitOptions::one_sided_torus).
+  bool one_sided_torus = false;
 };
 
 /// The same without the sanity bound (used by fit_wedge).

@@ -18,12 +18,14 @@
 
 #include <string>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <utility>
 #include <vector>
 
 using namespace hocurve;
@@ -513,7 +515,60 @@ Dist filletbox_distance(double r) {
   return [=](const Eigen::Vector3d& x) { return std::abs((x - x.cwiseMax(lo).cwiseMin(hi)).norm() - r); };
 }
 
+/// Gmsh mesh of a cylinder (radius 0.5, height 1) with both rims filleted at radius r, each CAD face an entity.
+Mesh roundcyl_mesh(double h, double r) {
+  GmshSession gmsh_session;
+  gmsh::model::add("roundcyl");
+  const int cyl = gmsh::model::occ::addCylinder(0, 0, 0, 0, 0, 1, 0.5);
+  gmsh::model::occ::synchronize();
+  gmsh::vectorpair edges, out;
+  gmsh::model::getEntities(edges, 1);
+  std::vector<int> rims, volumes{cyl};
+  for (const auto& e : edges) {
+    std::string type;
+    gmsh::model::getType(1, e.second, type);
+    if (type == "Circle") rims.push_back(e.second);
+  }
+  gmsh::model::occ::fillet(volumes, rims, {r}, out);
+  gmsh::model::occ::synchronize();
+  return gmsh_surface_mesh(h, h / 4, true);
+}
+
+/// Distance to the cylinder of roundcyl_mesh: to the (rho, z) rectangle the ball of radius r rolls round, less r.
+Dist roundcyl_distance(double r) {
+  return [=](const Eigen::Vector3d& x) {
+    const double rho = std::hypot(x[0], x[1]);
+    return std::abs(std::hypot(rho - std::min(rho, 0.5 - r), x[2] - std::clamp(x[2], r, 1 - r)) - r);
+  };
+}
+
 }  // namespace
+
+TEST_CASE("fillets given as CAD faces: one-sided fits over their own torus where a strip turns 90 degrees") {
+  // A cylinder's rims filleted at r = 0.12, each CAD face an entity, h = 0.05: each fillet is a
+  // torus strip about four triangles across whose borders are feature curves. Heights over the
+  // plane or quadric at one border are singular at the other, where the strip turns vertical:
+  // those one-sided fits were 0.05-0.08 h off their own points and P4 came out worse than linear.
+  // The agreement pass offers each one-sided wedge the fit over its half disc's own torus.
+  const double r = 0.12, h = 0.05;
+  const Dist dist = roundcyl_distance(r);
+  const Mesh m = roundcyl_mesh(h, r);
+  CurveOptions o;
+  const CurveResult R = curve_mesh(m, o);
+  o.fit.one_sided_torus = false;
+  const CurveResult plane = curve_mesh(m, o);
+  o.order = 1;
+  const CurveResult linear = curve_mesh(m, o);
+  const double err = surface_error(R.mesh, dist), err_plane = surface_error(plane.mesh, dist),
+               err_linear = surface_error(linear.mesh, dist);
+  MESSAGE(m.num_faces() << " triangles, " << R.fits.agreeing_fits << " one-sided wedges adopted: P4 " << err
+                        << " (without the torus candidate: " << err_plane << ", " << plane.fits.agreeing_fits
+                        << " adopted; linear " << err_linear << ")");
+  CHECK(err < 1e-4);
+  CHECK(err_linear > 100 * err);
+  CHECK(err_plane > 10 * err);
+  check_result(m, R);
+}
 
 TEST_CASE("fillets given as CAD faces: smooth inside, one-sided quadrics the neighbours agree with") {
   // A box with filleted edges (r = 0.15) meshed by Gmsh, each CAD face an entity: the face borders
@@ -534,11 +589,11 @@ TEST_CASE("fillets given as CAD faces: smooth inside, one-sided quadrics the nei
     kinks.features.kinks_inside_entities = true;
     const CurveResult K = curve_mesh(m, kinks);
     const double err_gated = surface_error(curve_mesh(m, gated).mesh, dist), err_kinks = surface_error(K.mesh, dist);
-    MESSAGE("h = " << h << ", " << m.num_faces() << " triangles, " << R.fits.agreeing_quadrics
+    MESSAGE("h = " << h << ", " << m.num_faces() << " triangles, " << R.fits.agreeing_fits
                    << " wedges agreeing: P4 " << err << " (gated quadric: " << err_gated << "; " << K.features.kink_edges
                    << " kinks inside the faces: " << err_kinks << ")");
     CHECK(R.features.kink_edges == 0);
-    CHECK(R.fits.agreeing_quadrics > 0);
+    CHECK(R.fits.agreeing_fits > 0);
     CHECK(err < (h > 0.075 ? 4e-3 : 1e-4));
     CHECK(err_gated > (h > 0.075 ? 3 : 10) * err);
     if (h > 0.075) CHECK(err_kinks > 3 * err);
@@ -585,29 +640,61 @@ TEST_CASE("tangent junctions: the filleted box's face borders found from the tri
   }
 }
 
+namespace {
+
+/// The filleted box of filletbox_mesh as an STL gives it (no entities).
+Mesh filletbox_stl(double h, double r) {
+  Mesh stl = filletbox_mesh(h, r);
+  stl.face_entity.resize(0);
+  return stl;
+}
+
+/// curve_mesh of a filleted box of radius r with options o, and the error of its result.
+std::pair<CurveResult, double> curve_filletbox(const Mesh& m, double r, const CurveOptions& o) {
+  CurveResult R = curve_mesh(m, o);
+  const double err = surface_error(R.mesh, filletbox_distance(r));
+  return {std::move(R), err};
+}
+
+}  // namespace
+
 TEST_CASE("tangent junctions: a curved face too narrow for its own fits is fitted across its borders") {
   // r = 0.25: the vertical fillets are 0.1 (two edges at h = 0.05) tall between corner spheres.
   // Their borders with the short side planes are not found (the stencils reach both ends), so
   // those planes and fillets make one region every vertex of which is within an edge of its
   // border; fitted on their own, the fillets came out worse than with no junction at all.
-  const double r = 0.25, h = 0.05;
-  const Dist dist = filletbox_distance(r);
-  Mesh stl = filletbox_mesh(h, r);
-  stl.face_entity.resize(0);
+  const double r = 0.25;
+  const Mesh stl = filletbox_stl(0.05, r);
   CurveOptions o;
-  const CurveResult R = curve_mesh(stl, o);
+  const auto [R, err] = curve_filletbox(stl, r, o);
   o.features.junction_min_width = 0;
-  const CurveResult narrow = curve_mesh(stl, o);
+  const auto [narrow, err_narrow] = curve_filletbox(stl, r, o);
   o.features.tangent_junctions = false;
-  const CurveResult none = curve_mesh(stl, o);
-  const double err = surface_error(R.mesh, dist), err_narrow = surface_error(narrow.mesh, dist),
-               err_none = surface_error(none.mesh, dist);
+  const double err_none = curve_filletbox(stl, r, o).second;
   MESSAGE("P4 " << err << " (" << R.features.junction_edges << " junction edges); narrow faces kept: " << err_narrow
                 << " (" << narrow.features.junction_edges << "); no junctions: " << err_none);
   CHECK(R.features.junction_edges > 0);
   CHECK(R.features.junction_edges < narrow.features.junction_edges);
   CHECK(err < 1.25 * err_none);
   CHECK(err_narrow > 1.5 * err);
+  check_result(stl, R);
+}
+
+TEST_CASE("tangent junctions: a border four edges long is found from its two middle edges") {
+  // r = 0.2: the vertical fillets are 0.2 (four edges at h = 0.05) tall. Of each one's borders
+  // with the side planes only the two middle edges pass the junction test (the end edges' stencils
+  // reach the corner spheres); two edges start a curve, which the weaker end edges then close.
+  const double r = 0.2;
+  const Mesh stl = filletbox_stl(0.05, r);
+  CurveOptions o;
+  const auto [R, err] = curve_filletbox(stl, r, o);
+  o.features.junction_min_edges = 3;
+  const auto [three, err_three] = curve_filletbox(stl, r, o);
+  MESSAGE("P4 " << err << " (" << R.features.junction_edges << " junction edges); curves of three edges or more: "
+                << err_three << " (" << three.features.junction_edges << ")");
+  CHECK(R.features.junction_edges > three.features.junction_edges);
+  CHECK(err < 1e-6);
+  CHECK(err_three > 100 * err);
   check_result(stl, R);
 }
 
