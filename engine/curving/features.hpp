@@ -50,10 +50,13 @@ struct FeatureOptions {
   /// junction_weak_ratio that continue it straight on (the end edges' stencils reach the next
   /// junction); then curves still ending in the open are dropped (a junction bounds a face: a
   /// partial find lets the fits reach round its ends, worse than none). The upper bound keeps
-  /// the curved side's radius at 2.5 edges or more: narrower fillet strips fit worse between
-  /// junctions than across them (a cylinder's r = 0.12 rim fillets at h = 0.05, even given as
-  /// CAD faces: 6.0e-3 against 6.1e-4). Set on a Gmsh filleted box (h = 0.05: exactly its 360
-  /// CAD face borders; P4 6.9e-4 -> 3.1e-5); none on the analytic and CAD benchmark meshes.
+  /// the curved side's radius at 1.67 edges or more (a 90 degree fillet at least 2.6 edges
+  /// across): narrower strips fit no better between junctions than across them (filleted box
+  /// r = 0.15, h = 0.1, given as CAD faces: 2.75e-3, across 2.64e-3). It was 0.4 while one-sided
+  /// fits of 90 degree strips were poor; with their torus fits (FitOptions::one_sided_torus) a
+  /// cylinder's r = 0.12 rim fillets at h = 0.05 (jump about 0.5) went 6.1e-4 -> 2.2e-5, as
+  /// given as CAD faces. Set on a Gmsh filleted box (h = 0.05: exactly its 360 CAD face borders;
+  /// P4 6.9e-4 -> 3.1e-5); none on the analytic and CAD benchmark meshes.
   /// Last, a curved face whose every vertex is within junction_min_width edge hops of its border
   /// loses its junctions with other curved faces: too narrow for fits of its own, it fits better
   /// across them (filleted box r = 0.25, h = 0.05, vertical fillets two edges tall: P4 9.0e-4
@@ -61,7 +64,7 @@ struct FeatureOptions {
   /// 3.1e-5 back to 6.9e-4).
   bool tangent_junctions = true;
   double junction_min_jump = 0.05;
-  double junction_max_jump = 0.4;
+  double junction_max_jump = 0.6;
   double junction_max_ratio = 0.3;
   double junction_weak_ratio = 0.7;
   /// 2, not 3: a fillet's border four edges long (filleted box r = 0.2, h = 0.05) has only two
