@@ -976,7 +976,8 @@ long long adopt_agreeing_fits(const Mesh& mesh, const Topology& T, const Wedges&
         const double off = disagreement(mesh, W, w, q, fits);
         if (off < best) best = off, chosen = std::move(q);
       };
-      if (gate_refused[w] && !fits[w].quadric_ref && fits[w].degree == d) consider(fit_wedge(mesh, T, W, w, d, support, sstart, sindex, open, s));
+      if (gate_refused[w] && !fits[w].quadric_ref && fits[w].degree == d)
+        consider(fit_wedge(mesh, T, W, w, d, support, sstart, sindex, open, s));
       if (opt.one_sided_torus) {
         s.one_sided_torus = true;
         consider(fit_wedge(mesh, T, W, w, d, support, sstart, sindex, opt, s));

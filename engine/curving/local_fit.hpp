@@ -309,8 +309,8 @@ struct FitScratch {
   /// Set (never cleared) when a one-sided quadric fit was refused by a gate the agreement pass
   /// opens (one_sided_quadric_gap, or the stencil at max_rings): only those wedges are refit.
   bool quadric_gate_refused = false;
-  /// One-sided wedges fit over their stencil's torus or quadric (reference_fit) when it has full
-  /// degree (the agreement pass's candidate, FitOptions::one_sided_torus).
+  /// One-sided wedges fit over their stencil's torus or quadric (reference_fit) instead of the
+  /// plane: the agreement pass's candidate (FitOptions::one_sided_torus).
   bool one_sided_torus = false;
 };
 
