@@ -966,7 +966,8 @@ long long adopt_agreeing_fits(const Mesh& mesh, const Topology& T, const Wedges&
     FitScratch& s = scratch.local();
     for (int w = r.begin(); w < r.end(); ++w) {
       const int d = wedge_degree(W, w, p, opt);
-      if (!W.one_sided(w) || fits[w].identity) continue;
+      const bool quadric_candidate = gate_refused[w] && !fits[w].quadric_ref && fits[w].degree == d;
+      if (!W.one_sided(w) || fits[w].identity || !(quadric_candidate || opt.one_sided_torus)) continue;
       const double current = disagreement(mesh, W, w, fits[w], fits);
       if (!(current > 1e-6 * fits[w].h)) continue;  // agrees to round-off already
       double best = opt.one_sided_quadric_agreement * current;
@@ -976,8 +977,7 @@ long long adopt_agreeing_fits(const Mesh& mesh, const Topology& T, const Wedges&
         const double off = disagreement(mesh, W, w, q, fits);
         if (off < best) best = off, chosen = std::move(q);
       };
-      if (gate_refused[w] && !fits[w].quadric_ref && fits[w].degree == d)
-        consider(fit_wedge(mesh, T, W, w, d, support, sstart, sindex, open, s));
+      if (quadric_candidate) consider(fit_wedge(mesh, T, W, w, d, support, sstart, sindex, open, s));
       if (opt.one_sided_torus) {
         s.one_sided_torus = true;
         consider(fit_wedge(mesh, T, W, w, d, support, sstart, sindex, opt, s));

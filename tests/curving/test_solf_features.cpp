@@ -497,19 +497,28 @@ TEST_CASE("a flat face meshed with inside vertices stays flat beside its fillets
 
 namespace {
 
+/// Gmsh mesh at size h, each CAD face an entity, of OCC volume `volume` (in the current model)
+/// with its curves of OCC type `type` ("" for all) filleted at radius r.
+Mesh filleted_mesh(int volume, const std::string& type, double r, double h) {
+  gmsh::model::occ::synchronize();
+  gmsh::vectorpair edges, out;
+  gmsh::model::getEntities(edges, 1);
+  std::vector<int> curves, volumes{volume};
+  for (const auto& e : edges) {
+    std::string t;
+    gmsh::model::getType(1, e.second, t);
+    if (type.empty() || t == type) curves.push_back(e.second);
+  }
+  gmsh::model::occ::fillet(volumes, curves, {r}, out);
+  gmsh::model::occ::synchronize();
+  return gmsh_surface_mesh(h, h / 4, true);
+}
+
 /// A box with filleted edges (radius r) meshed by Gmsh at size h, each CAD face an entity.
 Mesh filletbox_mesh(double h, double r) {
   GmshSession gmsh_session;
   gmsh::model::add("filletbox");
-  const int box = gmsh::model::occ::addBox(0, 0, 0, 1, 0.8, 0.6);
-  gmsh::model::occ::synchronize();
-  gmsh::vectorpair edges, out;
-  gmsh::model::getEntities(edges, 1);
-  std::vector<int> curves, volumes{box};
-  for (const auto& e : edges) curves.push_back(e.second);
-  gmsh::model::occ::fillet(volumes, curves, {r}, out);
-  gmsh::model::occ::synchronize();
-  return gmsh_surface_mesh(h, h / 4, true);
+  return filleted_mesh(gmsh::model::occ::addBox(0, 0, 0, 1, 0.8, 0.6), "", r, h);
 }
 
 /// Distance to the filleted box of filletbox_mesh: to the box the ball of radius r rolls round, less r.
@@ -522,19 +531,7 @@ Dist filletbox_distance(double r) {
 Mesh roundcyl_mesh(double h, double r) {
   GmshSession gmsh_session;
   gmsh::model::add("roundcyl");
-  const int cyl = gmsh::model::occ::addCylinder(0, 0, 0, 0, 0, 1, 0.5);
-  gmsh::model::occ::synchronize();
-  gmsh::vectorpair edges, out;
-  gmsh::model::getEntities(edges, 1);
-  std::vector<int> rims, volumes{cyl};
-  for (const auto& e : edges) {
-    std::string type;
-    gmsh::model::getType(1, e.second, type);
-    if (type == "Circle") rims.push_back(e.second);
-  }
-  gmsh::model::occ::fillet(volumes, rims, {r}, out);
-  gmsh::model::occ::synchronize();
-  return gmsh_surface_mesh(h, h / 4, true);
+  return filleted_mesh(gmsh::model::occ::addCylinder(0, 0, 0, 0, 0, 1, 0.5), "Circle", r, h);
 }
 
 /// Distance to the cylinder of roundcyl_mesh: to the (rho, z) rectangle the ball of radius r rolls round, less r.
