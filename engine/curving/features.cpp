@@ -100,6 +100,62 @@ double kink_angle_deg(const Mesh& mesh, const Topology& T, const std::vector<cha
   return 2 * std::atan(std::abs(c[6])) * 180.0 / std::numbers::pi;
 }
 
+/// Turn in degrees from face normal n to face normal m about the unit direction t (signed):
+/// the angle between them in a cross-section across t.
+double turn_about_deg(const Eigen::Vector3d& n, const Eigen::Vector3d& m, const Eigen::Vector3d& t) {
+  return std::atan2(n.cross(m).dot(t), n.dot(m)) * 180.0 / std::numbers::pi;
+}
+
+/// True when edge e (two faces, dihedral angle theta) is the middle row of a fillet tessellated
+/// with two segments across: beyond the far corner of each of its faces the surface turns on in
+/// the same sense by about half as much (a circle's chord meets its tangent at half the angle
+/// between chords) and further out it turns no more (the faces the fillet is tangent to). A
+/// chamfer band turns by theta at the far corner on one side and not at all on the other; a
+/// coarse lens rim or polygonal prism keeps turning beyond: those stay sharp.
+bool coarse_fillet_middle(const Mesh& mesh, const Topology& T, int e, double theta) {
+  const auto& ef = T.edge_faces[e];
+  const int a = T.E(e, 0), b = T.E(e, 1);
+  const Eigen::Vector3d pa = mesh.V.row(a), pb = mesh.V.row(b);
+  const Eigen::Vector3d t = (pb - pa).normalized();
+  Eigen::Vector3d n[2];
+  for (int s = 0; s < 2; ++s) n[s] = face_normal(mesh, ef[s]).normalized();
+  const double sense = turn_about_deg(n[0], n[1], t) > 0 ? 1.0 : -1.0;  // face 0 -> face 1
+  auto unit_normal = [&](int f) {
+    const Eigen::Vector3d m = face_normal(mesh, f);
+    return m.norm() > 0 ? Eigen::Vector3d(m.normalized()) : Eigen::Vector3d::Zero();
+  };
+  auto off_line = [&](int v) {  // distance of vertex v from the line of e
+    const Eigen::Vector3d d = Eigen::Vector3d(mesh.V.row(v)) - pa;
+    return (d - d.dot(t) * t).norm();
+  };
+  for (int s = 0; s < 2; ++s) {
+    const int f = ef[s];
+    int c = 0;
+    for (int j = 0; j < 3; ++j)
+      if (mesh.F(f, j) != a && mesh.F(f, j) != b) c = mesh.F(f, j);
+    // Walking away from e: on side 0 from the faces beyond c into face 0, on side 1 from face 1 out.
+    double best = 0;
+    int g_best = -1;
+    auto [fb, fe] = T.faces_of(c);
+    for (const int* g = fb; g != fe; ++g) {
+      if (*g == f) continue;
+      const Eigen::Vector3d m = unit_normal(*g);
+      const double turn = sense * (s == 0 ? turn_about_deg(m, n[0], t) : turn_about_deg(n[1], m, t));
+      if (std::abs(turn) > std::abs(best)) best = turn, g_best = *g;
+    }
+    if (g_best < 0 || best < 0.3 * theta || best > 0.7 * theta) return false;
+    int x = c;  // the corner of that face furthest from e's line
+    for (int j = 0; j < 3; ++j)
+      if (off_line(mesh.F(g_best, j)) > off_line(x)) x = mesh.F(g_best, j);
+    if (x == c) return false;
+    const Eigen::Vector3d m = unit_normal(g_best);
+    auto [xb, xe] = T.faces_of(x);
+    for (const int* g = xb; g != xe; ++g)
+      if (std::abs(turn_about_deg(m, unit_normal(*g), t)) > 0.25 * theta) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptions& opt) {
@@ -142,7 +198,8 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
       }
       theta[e] = angle_deg(face_normal(mesh, ef[0]), face_normal(mesh, ef[1]));
       cap[e] = face_cap[ef[0]] || face_cap[ef[1]];
-      if (dihedral && theta[e] > opt.angle_deg && !cap[e]) {
+      if (dihedral && theta[e] > opt.angle_deg && !cap[e] &&
+          !(theta[e] <= opt.fillet_max_deg && coarse_fillet_middle(mesh, T, e, theta[e]))) {
         ++R.sharp_edges;
         only_sharp[e] = !feat;
         feat = true;

@@ -35,6 +35,11 @@ struct FeatureOptions {
   /// 1), and P4 nodes up to 4e-3 off the sphere there (linear: 5e-3).
   double cap_angle_deg = 150.0;
   double cap_tilt_deg = 10.0;
+  /// An edge sharper than angle_deg but at most fillet_max_deg is smooth when it is the middle row
+  /// of a fillet tessellated with two segments across (dihedral angles theta / 2, theta, theta / 2,
+  /// flat beyond; e.g. a 90 degree fillet at 45 degrees per segment): taken sharp, each half of the
+  /// fillet was fitted as a ruled band, off by the chord's sagitta. 0 turns it off.
+  double fillet_max_deg = 65.0;
   double corner_angle_deg = 35.0;  ///< a vertex on a single curve is a corner when the curve turns more than this
   bool entity_borders = true;      ///< edges between faces of different input entities are features
   /// With entity_borders and several input entities (CAD faces, which are smooth inside), edges

@@ -286,6 +286,92 @@ TEST_CASE("kink test: a 25 degree crease is sharp, a coarse 16-gon cylinder is n
   CHECK(C.sharp_edges == 2 * 16);
 }
 
+/// An open sheet: the polyline `profile` (points (y, z)) extruded along x over [0, length] in n
+/// steps, each quad split along alternating diagonals.
+Mesh extruded(const std::vector<Eigen::Vector2d>& profile, double length, int n) {
+  const int k = static_cast<int>(profile.size());
+  Mesh m;
+  m.V.resize((n + 1) * k, 3);
+  m.F.resize(2 * n * (k - 1), 3);
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j < k; ++j) m.V.row(i * k + j) << length * i / n, profile[j][0], profile[j][1];
+  for (int i = 0, f = 0; i < n; ++i)
+    for (int j = 0; j + 1 < k; ++j) {
+      const int a = i * k + j, b = a + 1, c = a + k, d = c + 1;
+      if ((i + j) % 2) m.F.row(f++) << a, c, d, m.F.row(f++) << a, d, b;
+      else m.F.row(f++) << a, c, b, m.F.row(f++) << b, c, d;
+    }
+  return m;
+}
+
+/// Number of sharp edges joining two vertices of profile row j (interior rows only).
+int sharp_on_row(const Mesh& m, const Features& F, int k, int j) {
+  const Topology T = build_topology(m.F, m.num_vertices());
+  int count = 0;
+  for (int e = 0; e < T.num_edges(); ++e)
+    if (F.edge_feature[e] && T.E(e, 0) % k == j && T.E(e, 1) % k == j) ++count;
+  return count;
+}
+
+TEST_CASE("coarse fillets: a two-segment fillet's middle row is smooth; chamfers and prisms stay sharp") {
+  // Profile: a flat run at z = 0, a turn of `turn` degrees made by `segments` equal chords of
+  // length h (turns of turn / segments between chords, half of it where they meet the flats), a
+  // flat run up the other side. h = 1; the extrusion's steps are 1 too.
+  auto profile = [](double turn_deg, int segments, int flat) {
+    std::vector<Eigen::Vector2d> P;
+    const double step = turn_deg / segments * std::numbers::pi / 180;
+    Eigen::Vector2d x(0, 0);
+    for (int i = 0; i < flat; ++i) P.push_back(x), x += Eigen::Vector2d(1, 0);
+    for (int i = 0; i < segments; ++i) {
+      P.push_back(x);
+      const double a = (i + 0.5) * step;
+      x += Eigen::Vector2d(std::cos(a), std::sin(a));
+    }
+    const double a = segments * step;
+    for (int i = 0; i <= flat; ++i) P.push_back(x), x += Eigen::Vector2d(std::cos(a), std::sin(a));
+    return P;
+  };
+  const int flat = 4, n = 12;
+  // 90 degrees in two segments: dihedral angles 22.5, 45, 22.5; the middle row is profile point
+  // flat + 1. Smooth, as are its neighbours.
+  const Mesh fillet = extruded(profile(90, 2, flat), n, n);
+  const Features F = detect(fillet);
+  CHECK(sharp_on_row(fillet, F, 2 * flat + 3, flat + 1) == 0);
+  CHECK(F.sharp_edges == 0);
+  // Switched off, it is sharp.
+  FeatureOptions off;
+  off.fillet_max_deg = 0;
+  CHECK(sharp_on_row(fillet, detect(fillet, off), 2 * flat + 3, flat + 1) == n);
+  // 120 degrees in two segments: 30, 60, 30 (the 30-degree rows are the kink test's to judge).
+  const Mesh wide = extruded(profile(120, 2, flat), n, n);
+  CHECK(sharp_on_row(wide, detect(wide), 2 * flat + 3, flat + 1) == 0);
+  // A 45-degree chamfer: one segment, both its rows sharp (45 degrees, flat beyond on one side,
+  // the other row's 45 degrees on the other).
+  const Mesh chamfer = extruded(profile(90, 1, flat), n, n);
+  const Features C = detect(chamfer);
+  CHECK(sharp_on_row(chamfer, C, 2 * flat + 2, flat) == n);
+  CHECK(sharp_on_row(chamfer, C, 2 * flat + 2, flat + 1) == n);
+  // Turning on beyond the half-turn rows (a coarse polygonal prism: 45 degrees every row) is sharp.
+  std::vector<Eigen::Vector2d> octagon;
+  for (int i = 0; i <= 6; ++i) octagon.emplace_back(std::cos(i * std::numbers::pi / 4), std::sin(i * std::numbers::pi / 4));
+  const Mesh prism = extruded(octagon, n, n);
+  const Features O = detect(prism);
+  for (int j = 1; j <= 5; ++j) CHECK(sharp_on_row(prism, O, 7, j) == n);
+  // A lens rim: a 45-degree row between rows turning 22.5 degrees, which turn on as much beyond.
+  std::vector<Eigen::Vector2d> lens;
+  Eigen::Vector2d x(0, 0);
+  const double turns[] = {0, 22.5, 22.5, 45, 22.5, 22.5, 0};
+  double a = 0;
+  for (double t : turns) {
+    lens.push_back(x);
+    a += t * std::numbers::pi / 180;
+    x += Eigen::Vector2d(std::cos(a), std::sin(a));
+  }
+  lens.push_back(x);
+  const Mesh rim = extruded(lens, n, n);
+  CHECK(sharp_on_row(rim, detect(rim), 8, 3) == n);
+}
+
 TEST_CASE("cylinder: two closed rim loops, entity borders counted") {
   const int k = 24;
   const Mesh m = capped_cylinder(k, 6, 1.0, 2.0);

@@ -570,6 +570,30 @@ TEST_CASE("fillets given as CAD faces: one-sided fits over their own torus where
   check_result(m, R);
 }
 
+TEST_CASE("coarse fillets from the STL: a rim fillet two triangles across is fitted across, not split") {
+  // The cylinder's r = 0.12 rim fillets at h = 0.1: two chords across each, dihedral angles of
+  // about 22, 45 and 22 degrees. Taken sharp at 45, each half of the fillet was a ruled band, off
+  // by its chord's sagitta (1.1e-2, linear 1.0e-2).
+  const double r = 0.12;
+  Mesh stl = roundcyl_mesh(0.1, r);
+  stl.face_entity.resize(0);
+  const Dist dist = roundcyl_distance(r);
+  CurveOptions o;
+  const CurveResult R = curve_mesh(stl, o);
+  o.features.fillet_max_deg = 0;
+  const CurveResult sharp = curve_mesh(stl, o);
+  o.order = 1;
+  const double err = surface_error(R.mesh, dist), err_sharp = surface_error(sharp.mesh, dist),
+               err_linear = surface_error(curve_mesh(stl, o).mesh, dist);
+  MESSAGE(stl.num_faces() << " triangles: P4 " << err << " with " << R.features.sharp_edges << " sharp edges ("
+                          << sharp.features.sharp_edges << " sharp: " << err_sharp << "; linear " << err_linear << ")");
+  CHECK(R.features.sharp_edges == 0);
+  CHECK(sharp.features.sharp_edges > 0);
+  CHECK(err < err_linear / 4);
+  CHECK(err_sharp > 3 * err);
+  check_result(stl, R);
+}
+
 TEST_CASE("fillets given as CAD faces: smooth inside, one-sided quadrics the neighbours agree with") {
   // A box with filleted edges (r = 0.15) meshed by Gmsh, each CAD face an entity: the face borders
   // are feature curves, so each fillet is a strip two to four triangles across between two of
