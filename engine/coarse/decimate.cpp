@@ -48,6 +48,7 @@ FeatureMarks mark_features(const Mesh& m, const Topology& T, const DecimateOptio
     fo.angle_deg = opt.feature_angle_deg;
     fo.corner_angle_deg = opt.corner_angle_deg;
     fo.entity_borders = opt.entity_borders;
+    fo.fillet_max_deg = 0;  // as feature_options() (lift.cpp) says why
     Features f = detect_features(m, T, fo);
     fm.edge = std::move(f.edge_feature);
     fm.corner = std::move(f.vertex_corner);

@@ -262,6 +262,10 @@ FeatureOptions feature_options(const DecimateOptions& d) {
   f.corner_angle_deg = d.corner_angle_deg;
   f.entity_borders = d.preserve_features && d.entity_borders;
   f.min_dangling_edges = d.min_feature_curve_edges;
+  // Coarse fillets stay sharp here: decimating a two-chord fillet along its middle row is as good
+  // as across it, and the re-decimation search moved both ways when a scan lost a few such edges
+  // (bench_lift real at 4%: armadillo 0.338 -> 0.443%, spot 0.571 -> 0.435%; skull 5% 0.536 -> 0.622%).
+  f.fillet_max_deg = 0;
   return f;
 }
 
