@@ -117,13 +117,12 @@ bool coarse_fillet_middle(const Mesh& mesh, const Topology& T, int e, double the
   const int a = T.E(e, 0), b = T.E(e, 1);
   const Eigen::Vector3d pa = mesh.V.row(a), pb = mesh.V.row(b);
   const Eigen::Vector3d t = (pb - pa).normalized();
-  Eigen::Vector3d n[2];
-  for (int s = 0; s < 2; ++s) n[s] = face_normal(mesh, ef[s]).normalized();
-  const double sense = turn_about_deg(n[0], n[1], t) > 0 ? 1.0 : -1.0;  // face 0 -> face 1
-  auto unit_normal = [&](int f) {
+  auto unit_normal = [&](int f) {  // zero for a face of zero area (turns by 0)
     const Eigen::Vector3d m = face_normal(mesh, f);
     return m.norm() > 0 ? Eigen::Vector3d(m.normalized()) : Eigen::Vector3d::Zero();
   };
+  const Eigen::Vector3d n[2] = {unit_normal(ef[0]), unit_normal(ef[1])};
+  const double sense = turn_about_deg(n[0], n[1], t) > 0 ? 1.0 : -1.0;  // face 0 -> face 1
   auto off_line = [&](int v) {  // distance of vertex v from the line of e
     const Eigen::Vector3d d = Eigen::Vector3d(mesh.V.row(v)) - pa;
     return (d - d.dot(t) * t).norm();
