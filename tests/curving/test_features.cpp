@@ -286,6 +286,8 @@ TEST_CASE("kink test: a 25 degree crease is sharp, a coarse 16-gon cylinder is n
   CHECK(C.sharp_edges == 2 * 16);
 }
 
+namespace {
+
 /// An open sheet: the polyline `profile` (points (y, z)) extruded along x over [0, length] in n
 /// steps, each quad split along alternating diagonals.
 Mesh extruded(const std::vector<Eigen::Vector2d>& profile, double length, int n) {
@@ -312,6 +314,8 @@ int sharp_on_row(const Mesh& m, const Features& F, int k, int j) {
     if (F.edge_feature[e] && T.E(e, 0) % k == j && T.E(e, 1) % k == j) ++count;
   return count;
 }
+
+}  // namespace
 
 TEST_CASE("coarse fillets: a two-segment fillet's middle row is smooth; chamfers and prisms stay sharp") {
   // Profile: a flat run at z = 0, a turn of `turn` degrees made by `segments` equal chords of
