@@ -1,5 +1,5 @@
 // hocurve: command-line front end of the engine. Exit codes: 0 done, 2 usage, 3 bad input,
-// 4 internal error; errors are one line on stderr.
+// 4 internal error, 5 out of memory; errors are one line on stderr.
 #include "cli/commands.hpp"
 
 #include "engine/core/error.hpp"
@@ -17,7 +17,7 @@ const char* kUsage =
     "                                           decimate and lift a coarse curved mesh onto the input\n"
     "  info     INPUT [--json]                  counts, bounding box, edge statistics, problems\n"
     "  hocurve <command> --help                 options of a command\n"
-    "exit codes: 0 done, 2 usage error, 3 input refused, 4 internal error\n";
+    "exit codes: 0 done, 2 usage error, 3 input refused, 4 internal error, 5 out of memory\n";
 }
 
 int main(int argc, char** argv) {
@@ -43,8 +43,8 @@ int main(int argc, char** argv) {
     std::cerr << "hocurve: input refused: " << e.what() << "\n";
     return 3;
   } catch (const std::bad_alloc&) {
-    std::cerr << "hocurve: internal error: out of memory\n";
-    return 4;
+    std::cerr << "hocurve: out of memory: the mesh needs more memory than this process may use\n";
+    return 5;
   } catch (const std::exception& e) {
     std::cerr << "hocurve: internal error: " << e.what() << "\n";
     return 4;

@@ -224,6 +224,8 @@ void JobRunner::janitor_loop() {
 
 void JobRunner::run_job(const std::string& id) {
   const double t0 = now_seconds();
+  // One time budget for the whole job: the info step's time counts against it.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.job_timeout);
   auto claimed = store_.update(id, [&](Job& j) {
     if (j.terminal()) return;
     j.status = "running";
@@ -270,7 +272,18 @@ void JobRunner::run_job(const std::string& id) {
     log_info("job finished", f);
   };
 
+  // A mesh whose reading or curving runs out of the job's memory (RLIMIT_AS): too large for this
+  // server, e.g. a gzip bomb; the client's to fix, not an internal error.
+  auto too_big = [&](const std::string& worker_said) {
+    return make_problem(413, "payload-too-large",
+                        "the mesh needs more memory than the job limit of " +
+                            std::to_string((long long)config_.job_memory_mb) +
+                            " MiB (a very large mesh, or a gzip file that inflates to one)" +
+                            (worker_said.empty() ? "" : ": " + worker_said));
+  };
+
   if (job.attempts > config_.max_attempts) {
+    store_.update(id, [](Job& j) { j.attempts -= 1; });  // this claim ran nothing
     finish("failed", make_problem(500, "worker-crashed",
                                   "job was interrupted " + std::to_string(job.attempts - 1) +
                                       " times (daemon restarts); giving up"));
@@ -293,6 +306,9 @@ void JobRunner::run_job(const std::string& id) {
     } else if (st >= 0 && WIFEXITED(st) && WEXITSTATUS(st) == 3) {
       const std::string why = last_line(logfile);
       finish("failed", make_problem(422, "invalid-mesh", why.empty() ? "mesh refused" : why));
+      return;
+    } else if (st >= 0 && WIFEXITED(st) && WEXITSTATUS(st) == 5) {
+      finish("failed", too_big(last_line(logfile)));
       return;
     }
     // Anything else (an older worker without `info`, a crash): the main run reports it.
@@ -361,7 +377,6 @@ void JobRunner::run_job(const std::string& id) {
     return;
   }
 
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.job_timeout);
   std::string buffer;
   bool eof = false, killed = false;
   int status = 0;
@@ -472,6 +487,9 @@ void JobRunner::run_job(const std::string& id) {
       return;
     case 3:
       finish("failed", make_problem(422, "invalid-mesh", err_line.empty() ? "mesh refused" : err_line));
+      return;
+    case 5:
+      finish("failed", too_big(err_line));
       return;
     case 127:
       finish("failed", make_problem(500, "internal", "cannot execute worker '" + worker_bin_ + "'"));

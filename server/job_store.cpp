@@ -2,14 +2,17 @@
 
 #include "server/log.hpp"
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <sys/file.h>
 #include <unistd.h>
 
 namespace hocurve::server {
@@ -106,8 +109,25 @@ void write_file_atomic(const std::string& path, const std::string& text) {
 }
 
 JobStore::JobStore(std::string data_dir) : data_dir_(std::move(data_dir)) {
+  if (data_dir_.empty()) throw std::runtime_error("the data directory path is empty");
   fs::create_directories(fs::path(data_dir_) / "jobs");
   fs::create_directories(uploads_dir());
+  // One daemon per data directory: a second one would rerun the first one's jobs and delete its
+  // uploads. The lock goes with the process (also on kill -9).
+  const std::string lock = (fs::path(data_dir_) / "lock").string();
+  lock_fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lock_fd_ < 0) throw std::runtime_error("cannot open " + lock + ": " + std::strerror(errno));
+  if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    ::close(lock_fd_);
+    lock_fd_ = -1;
+    throw std::runtime_error(err == EWOULDBLOCK ? "another hocurved is using this data directory (" + lock + " is locked)"
+                                                : "cannot lock " + lock + ": " + std::strerror(err));
+  }
+}
+
+JobStore::~JobStore() {
+  if (lock_fd_ >= 0) ::close(lock_fd_);
 }
 
 std::string JobStore::job_dir(const std::string& id) const { return (fs::path(data_dir_) / "jobs" / id).string(); }
@@ -203,11 +223,18 @@ std::optional<Job> JobStore::update(const std::string& id, const std::function<v
   return copy;
 }
 
-bool JobStore::remove(const std::string& id) {
+bool JobStore::remove(const std::string& id, std::string* error) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = jobs_.find(id);
     if (it == jobs_.end()) return false;
+    // The state file makes a job come back after a restart: it goes first, or the job stays.
+    std::error_code ec;
+    fs::remove(fs::path(job_dir(id)) / "state.json", ec);
+    if (ec) {
+      if (error) *error = "cannot delete the job's files: " + ec.message();
+      return false;
+    }
     if (!it->second.idempotency_key.empty()) idempotency_.erase(it->second.idempotency_key);
     jobs_.erase(it);
     versions_.erase(id);

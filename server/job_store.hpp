@@ -45,7 +45,11 @@ void write_file_atomic(const std::string& path, const std::string& text);
 
 class JobStore {
  public:
+  /// Creates the folders and takes the data directory's lock; throws when another process holds it.
   explicit JobStore(std::string data_dir);
+  ~JobStore();
+  JobStore(const JobStore&) = delete;
+  JobStore& operator=(const JobStore&) = delete;
 
   /// Loads every jobs/<id>/state.json; removes folders without one (interrupted uploads).
   /// Returns the loaded jobs, oldest first.
@@ -61,8 +65,9 @@ class JobStore {
   std::optional<Job> get(const std::string& id) const;
   /// Applies `fn` to the job under the lock and persists it; returns the updated job.
   std::optional<Job> update(const std::string& id, const std::function<void(Job&)>& fn, bool persist = true);
-  /// Removes the job and its folder.
-  bool remove(const std::string& id);
+  /// Removes the job and its folder. False when there is no such job, or (with `error` set) when
+  /// its state file cannot be deleted: the job then stays, as it would after a restart.
+  bool remove(const std::string& id, std::string* error = nullptr);
   /// Newest first, ids strictly older than `after` when given; sync jobs are not listed.
   std::vector<Job> list(size_t limit, const std::string& after, const std::string& status, bool& more) const;
   std::vector<Job> all() const;
@@ -84,6 +89,7 @@ class JobStore {
   /// so that readers never wait for an fsync.
   void persist_version(const Job& job, std::uint64_t v);
   std::string data_dir_;
+  int lock_fd_ = -1;  ///< flock'ed data_dir/lock
   mutable std::mutex mutex_;
   std::mutex persist_mutex_;
   std::map<std::string, std::uint64_t> versions_;  // under mutex_

@@ -37,7 +37,22 @@ int main(int argc, char** argv) {
   std::error_code ec;
   const std::string exe_dir = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path().string();
 
+  // The data directory first: its lock keeps a second daemon off the same jobs.
+  std::unique_ptr<App> app;
+  try {
+    app = std::make_unique<App>(config, worker);
+  } catch (const std::exception& e) {
+    log_error("cannot open the data directory", {{"data_dir", config.data_dir}, {"error", e.what()}});
+    return 1;
+  }
+
   httplib::Server svr;
+  // SO_REUSEADDR only: the library's default SO_REUSEPORT let a second daemon bind the same port
+  // and take half the connections.
+  svr.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
   const int threads = config.http_threads;
   svr.new_task_queue = [threads] { return new httplib::ThreadPool((size_t)threads); };
   svr.set_keep_alive_max_count(5);
@@ -54,18 +69,11 @@ int main(int argc, char** argv) {
       return 1;
     }
   } else if (!svr.bind_to_port(config.host, port)) {
-    log_error("cannot bind", {{"host", config.host}, {"port", port}});
+    log_error("cannot bind (address in use?)", {{"host", config.host}, {"port", port}});
     return 1;
   }
   log_info("listening", {{"host", config.host}, {"port", port}, {"version", HOCURVE_VERSION}, {"pid", ::getpid()}});
 
-  std::unique_ptr<App> app;
-  try {
-    app = std::make_unique<App>(config, worker);
-  } catch (const std::exception& e) {
-    log_error("cannot open the data directory", {{"data_dir", config.data_dir}, {"error", e.what()}});
-    return 1;
-  }
   if (::access(worker.c_str(), X_OK) != 0)
     log_warn("worker program not found or not executable; jobs will fail", {{"hocurve_bin", worker}});
   app->openapi = load_openapi(exe_dir);

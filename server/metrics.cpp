@@ -3,6 +3,7 @@
 #include "server/log.hpp"
 
 #include <cstdio>
+#include <set>
 #include <sstream>
 
 namespace hocurve::server {
@@ -67,9 +68,11 @@ Metrics::Metrics()
       start_time_(now_seconds()) {}
 
 void Metrics::count_request(const std::string& method, const std::string& route, int status, double seconds) {
+  // A bounded label set: any other method string a client sends is "other".
+  static const std::set<std::string> known = {"GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS"};
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    requests_[{method, route, status}]++;
+    requests_[{known.count(method) ? method : "other", route, status}]++;
   }
   request_seconds_.observe(seconds);
 }

@@ -10,7 +10,9 @@
 #include <httplib.h>
 
 #include <chrono>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <set>
 #include <fcntl.h>
 #include <filesystem>
@@ -58,6 +60,10 @@ void send_json(Response& res, int status, const nlohmann::json& body) {
 void send_problem(const Request& req, Response& res, int status, const std::string& type, const std::string& detail,
                   nlohmann::json extra = nlohmann::json::object()) {
   nlohmann::json p = make_problem(status, type, detail, extra);
+  if (t_request_id.empty()) {  // refused by the HTTP parser, before pre-routing
+    t_request_id = new_request_id();
+    res.set_header("X-Request-Id", t_request_id);
+  }
   p["instance"] = req.path;
   p["request_id"] = t_request_id;
   res.status = status;
@@ -83,6 +89,27 @@ std::string route_of(const Request& req) {
     if (std::regex_match(p, stats)) return "/v1/jobs/{id}/stats";
   }
   return "other";
+}
+
+/// The methods a route answers (the Allow header of 405 and OPTIONS); empty for no route.
+std::string allowed_methods(const std::string& route) {
+  if (route == "other") return "";
+  if (route == "/v1/jobs") return "GET, HEAD, POST, OPTIONS";
+  if (route == "/v1/curve") return "POST, OPTIONS";
+  if (route == "/v1/jobs/{id}") return "GET, HEAD, DELETE, OPTIONS";
+  return "GET, HEAD, OPTIONS";
+}
+
+/// True when `allow` (an allowed_methods list) names `method`.
+bool allows(const std::string& allow, const std::string& method) {
+  size_t at = 0;
+  while (at < allow.size()) {
+    size_t end = allow.find(", ", at);
+    if (end == std::string::npos) end = allow.size();
+    if (allow.compare(at, end - at, method) == 0) return true;
+    at = end + 2;
+  }
+  return false;
 }
 
 bool constant_time_equal(const std::string& given, const std::string& secret) {
@@ -338,8 +365,27 @@ void install_routes(httplib::Server& svr, App& app) {
       res.set_header("Connection", "close");
       return httplib::Server::HandlerResponse::Handled;
     }
-    if (req.get_header_value("Range").find(',') != std::string::npos) {
-      send_problem(req, res, 416, "range-not-satisfiable", "multi-range requests are not supported");
+    // Range is ignored (RFC 9110 allows it): every answer is the whole representation, 200. The
+    // library would otherwise apply it to any response, JSON and problems included.
+    const_cast<Request&>(req).ranges.clear();
+    const bool has_body = req.has_header("Content-Length") || req.has_header("Transfer-Encoding");
+    const std::string allow = allowed_methods(route_of(req));
+    if (!allow.empty() && req.method == "OPTIONS") {
+      res.status = 204;
+      res.set_header("Allow", allow);
+      if (has_body) res.set_header("Connection", "close");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (!allow.empty() && !allows(allow, req.method)) {
+      send_problem(req, res, 405, "method-not-allowed", req.method + " is not allowed on " + req.path + "; allowed: " + allow);
+      res.set_header("Allow", allow);
+      if (has_body) res.set_header("Connection", "close");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if ((req.method == "POST" || req.method == "PUT" || req.method == "PATCH") && !has_body) {
+      // Without a length the library would wait for the client to close the connection.
+      send_problem(req, res, 411, "length-required", req.method + " needs a Content-Length header (use Content-Length: 0 for no body)");
+      res.set_header("Connection", "close");
       return httplib::Server::HandlerResponse::Handled;
     }
     if (!app.config.token.empty() && req.path.rfind("/v1/", 0) == 0) {
@@ -364,6 +410,14 @@ void install_routes(httplib::Server& svr, App& app) {
       case 413: send_problem(req, res, 413, "payload-too-large", "request body too large"); break;
       case 414: send_problem(req, res, 414, "uri-too-long", "request URI too long"); break;
       case 416: send_problem(req, res, 416, "range-not-satisfiable", "range not satisfiable"); break;
+      case 400:
+        send_problem(req, res, 400, "invalid-request",
+                     req.method.empty() || req.path.empty()
+                         ? "malformed request: the request line or a header could not be parsed (headers are limited to 8 KiB)"
+                     : allowed_methods("/v1/jobs/{id}").find(req.method) == std::string::npos && req.method != "POST" && req.method != "PUT" && req.method != "PATCH"
+                         ? "unsupported method '" + req.method.substr(0, 16) + "'"
+                         : "request could not be processed: a malformed or over-long header (8 KiB per line), or a body that could not be read");
+        break;
       default:
         send_problem(req, res, res.status, res.status >= 500 ? "internal" : "invalid-request",
                      "request could not be processed (HTTP " + std::to_string(res.status) + ")");
@@ -379,8 +433,10 @@ void install_routes(httplib::Server& svr, App& app) {
     double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_request_start).count();
     std::string route = route_of(req);
     app.metrics.count_request(req.method, route, res.status, seconds);
+    const std::string rid = std::move(t_request_id);
+    t_request_id.clear();  // the next request on this thread may fail before pre-routing sets one
     if (route == "/healthz" || route == "/readyz" || route == "/metrics") return;  // probes would drown the log
-    log_info("request", {{"request_id", t_request_id}, {"method", req.method}, {"route", route},
+    log_info("request", {{"request_id", rid}, {"method", req.method.substr(0, 16)}, {"route", route},
                          {"path", req.path.substr(0, 256)}, {"status", res.status},
                          {"duration_ms", std::round(seconds * 1e4) / 10}});
   });
@@ -388,6 +444,9 @@ void install_routes(httplib::Server& svr, App& app) {
   svr.Get("/healthz", [](const Request&, Response& res) { send_json(res, 200, {{"status", "ok"}}); });
   svr.Get("/readyz", [&app](const Request& req, Response& res) {
     if (app.draining) return send_problem(req, res, 503, "draining", "server is shutting down");
+    if (::access(app.store.uploads_dir().c_str(), W_OK) != 0)
+      return send_problem(req, res, 503, "storage-unavailable",
+                          std::string("the data directory is not writable: ") + std::strerror(errno));
     send_json(res, 200, {{"status", "ready"}, {"queue_depth", app.runner.queue_depth()}, {"running", app.runner.running()}});
   });
   svr.Get("/metrics", [&app](const Request&, Response& res) {
@@ -526,7 +585,9 @@ void install_routes(httplib::Server& svr, App& app) {
   svr.Delete(std::string("/v1/jobs/") + kIdPattern, guarded([&app](const Request& req, Response& res) {
                Job job = require_job(app, req);
                if (job.terminal()) {
-                 app.store.remove(job.id);
+                 std::string error;
+                 if (!app.store.remove(job.id, &error) && !error.empty())
+                   throw ApiError(503, "storage-unavailable", "job " + job.id + " was not deleted: " + error);
                  log_info("job deleted", {{"job_id", job.id}, {"request_id", t_request_id}});
                  res.status = 204;
                  return;

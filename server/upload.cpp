@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <cstring>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -124,7 +125,9 @@ Upload receive_upload(const httplib::Request& req, const httplib::ContentReader&
   Sink sink;
   sink.cap = cap;
   sink.fd = ::open(up.path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (sink.fd < 0) throw ApiError(500, "internal", "cannot create an upload file in the data directory");
+  if (sink.fd < 0)
+    throw ApiError(503, "storage-unavailable",
+                   std::string("cannot create an upload file in the data directory: ") + std::strerror(errno));
   if (reading) *reading = true;
   bool ok = true;
   std::string bad_part;

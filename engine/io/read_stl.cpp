@@ -52,6 +52,13 @@ void read_stl_binary(std::string_view b, const std::string& name, const ReadOpti
                                " bytes (facet " + std::to_string(whole) + " is incomplete or missing)");
   }
   if (n == 0) throw InputError(name, "binary STL declares 0 facets");
+  // Whole facets beyond the declared count: the count is wrong, and reading it would silently drop
+  // part of the surface. Other trailing bytes (text appended by some exporters) are ignored.
+  if (const unsigned long long extra = b.size() - need; extra >= 50 && extra % 50 == 0)
+    throw InputError(name, "binary STL header declares " + std::to_string(n) + " facets but the file's " +
+                               std::to_string(b.size()) + " bytes hold exactly " +
+                               std::to_string((b.size() - 84) / 50) +
+                               ": the facet count is wrong (refused rather than dropping facets)");
   if (need < b.size())
     out.report.warnings.push_back(name + ": " + std::to_string(b.size() - need) +
                                   " bytes after the " + std::to_string(n) +

@@ -109,6 +109,10 @@ TEST_CASE("lying counts in PLY, OFF and STL") {
   const std::uint32_t lie = 1000;
   std::memcpy(stl.data() + 80, &lie, 4);
   refused(stl, "c.stl", {"declares 1000 facets"});
+  // Declaring fewer facets than the file holds would drop part of the surface silently.
+  const std::uint32_t fewer = 2;
+  std::memcpy(stl.data() + 80, &fewer, 4);
+  refused(stl, "c.stl", {"declares 2 facets", "hold exactly 8"});
 }
 
 TEST_CASE("truncation and corruption sweep: InputError or success, nothing else") {

@@ -317,6 +317,63 @@ class ServerApi(unittest.TestCase):
         self.assertIn(r.status, (411,), body)
         self.assertEqual(json.loads(body)["code"], "length-required")
 
+    def raw_socket(self, request, timeout=10):
+        """Sends `request` bytes as they are (no header fixing by http.client); returns the answer bytes."""
+        import socket
+        host, port = self.d.url.split("//")[1].split(":")
+        with socket.create_connection((host, int(port)), timeout=timeout) as s:
+            s.sendall(request)
+            out = b""
+            while b"\r\n\r\n" not in out or len(out) < out.find(b"\r\n\r\n") + 4 + int(
+                    (re.search(rb"Content-Length: (\d+)", out) or [0, b"0"])[1]):
+                chunk = s.recv(65536)
+                if not chunk:
+                    break
+                out += chunk
+            return out
+
+    def test_methods_lengths_and_ranges(self):
+        # A path that exists, not with this method: 405 naming the allowed ones; OPTIONS lists them.
+        problem(self, raw(self.d.url, "DELETE", "/v1/info"), 405, "method-not-allowed")
+        st, h, _ = raw(self.d.url, "PUT", "/v1/jobs/abc", body=b"")
+        self.assertEqual((st, h.get("allow")), (405, "GET, HEAD, DELETE, OPTIONS"))
+        st, h, body = raw(self.d.url, "OPTIONS", "/v1/jobs")
+        self.assertEqual((st, h.get("allow"), body), (204, "GET, HEAD, POST, OPTIONS", b""))
+        # A body without a length is refused at once: the HTTP library would wait for the client to close.
+        t0 = time.monotonic()
+        out = self.raw_socket(b"PUT /v1/elsewhere HTTP/1.1\r\nHost: x\r\n\r\n")
+        self.assertLess(time.monotonic() - t0, 5)
+        self.assertIn(b" 411 ", out.split(b"\r\n")[0])
+        # Unparsable requests get their own request id, never the previous request's.
+        ids = []
+        for _ in range(2):
+            out = self.raw_socket(b"FOO / HTTP/1.1\r\nHost: x\r\n\r\n")
+            self.assertIn(b" 400 ", out.split(b"\r\n")[0])
+            ids.append(json.loads(out.split(b"\r\n\r\n", 1)[1])["request_id"])
+        self.assertTrue(ids[0] and ids[1] and ids[0] != ids[1], ids)
+        # Range is ignored: the whole body, 200, on results and JSON alike.
+        done = self.submit_wait()
+        full = raw(self.d.url, "GET", "/v1/jobs/%s/result" % done["id"])[2]
+        for rng in ["bytes=99999999-", "bytes=0-9", "bytes=0-1,5-6"]:
+            st, _, body = raw(self.d.url, "GET", "/v1/jobs/%s/result" % done["id"], headers={"Range": rng})
+            self.assertEqual((st, len(body)), (200, len(full)), rng)
+        st, _, body = raw(self.d.url, "GET", "/v1/jobs/" + done["id"], headers={"Range": "bytes=0-9"})
+        self.assertEqual(json.loads(body)["id"], done["id"])
+        # Method labels of the metrics stay a bounded set.
+        self.raw_socket(b"RND1 /healthz HTTP/1.1\r\nHost: x\r\n\r\n")
+        metrics = raw(self.d.url, "GET", "/metrics")[2].decode()
+        self.assertNotIn('method="RND1"', metrics)
+
+    def test_one_daemon_per_data_directory_and_port(self):
+        # A second daemon on the same data directory would rerun the first one's jobs; on the same
+        # port it would take half its connections. Both refuse to start.
+        for args in (["--port", "0", "--data-dir", self.d.data_dir],
+                     ["--port", str(self.d.port), "--data-dir", os.path.join(self.tmp, "other-data")]):
+            r = subprocess.run([os.path.join(BUILD_DIR, "hocurved"), "--host", "127.0.0.1"] + args,
+                               capture_output=True, timeout=20)
+            self.assertEqual(r.returncode, 1, r.stdout[-500:])
+            self.assertIn(b"another hocurved" if "--port" in args and args[1] == "0" else b"cannot bind", r.stdout)
+
     def test_paths_and_ids(self):
         for path in ["/v1/jobs/does-not-exist", "/v1/jobs/..%2f..%2fetc%2fpasswd", "/v1/jobs/../../etc/passwd",
                      "/v1/jobs/%2e%2e", "/v1/jobs/a%00b", "/v1/jobs/x/result", "/v1/jobs/x/stats", "/v2/anything",

@@ -126,7 +126,7 @@ class Robust(unittest.TestCase):
 
     def test_worker_exit_codes(self):
         w = D.fake_worker(self.tmp, "exit.sh", "#!/bin/sh\necho 'sphere.stl: facet 7: degenerate' >&2\nexit ${FAKE_RC}\n")
-        for rc, code in [("3", "invalid-mesh"), ("2", "invalid-options"), ("4", "internal")]:
+        for rc, code in [("3", "invalid-mesh"), ("2", "invalid-options"), ("4", "internal"), ("5", "payload-too-large")]:
             d = self.daemon(w, data_dir=os.path.join(self.tmp, "data" + rc), env={"FAKE_RC": rc})
             c = Client(d.url)
             done = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)
@@ -139,6 +139,18 @@ class Robust(unittest.TestCase):
                 with self.assertRaises(ProblemError) as e:
                     c.curve(SPHERE, {"order": 2})
                 self.assertEqual((e.exception.status, e.exception.type), (422, "invalid-mesh"), e.exception.problem)
+
+    def test_one_time_budget_for_info_and_curving(self):
+        # The input check (`hocurve info`) and the curving share --job-timeout: 2 s + 2 s > 3 s.
+        w = D.fake_worker(self.tmp, "slow_info.sh", "#!/bin/sh\nsleep 2\n"
+                          "if [ \"$1\" = info ]; then echo '{}'; exit 0; fi\n"
+                          "while [ \"$1\" != -o ]; do shift; done\necho x > \"$2\"\n")
+        d = self.daemon(w, ["--job-timeout", "3"], data_dir=os.path.join(self.tmp, "data-budget"))
+        c = Client(d.url)
+        t0 = time.monotonic()
+        done = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)
+        self.assertEqual((done["status"], done["error"]["code"]), ("failed", "timeout"), done)
+        self.assertLess(time.monotonic() - t0, 5.5)
 
     def test_cancel_timeout_and_memory_limit(self):
         env = {"FAKE_SLEEP": "0.5", "FAKE_STEPS": "100"}  # 50 s unless stopped
