@@ -125,7 +125,9 @@ struct FitOptions {
   /// near the slot, pivots ~1e-3: 8x the degree-4 fit's error; on the torus at h = 0.2 they are
   /// 0.12-0.15). Measured P6, screw d/80, d/160: 7.5e-3 / 1.3e-3 -> 2.2e-3 / 3.6e-4; sphere,
   /// torus, ellipsoid unchanged. (Comparing the two fits' residuals instead picked degree 4 on
-  /// the torus where degree 6 was 2.5x better.)
+  /// the torus where degree 6 was 2.5x better.) So do P5 and P6 fits lowered below min_degree for
+  /// want of points (a hole's wall three rows high in a 0.02 thick plate at h = 0.05: degree 3 over
+  /// the plane, P6 2.4e-3, worse than linear 1.7e-3; refit: 7.1e-5, P4 3.1e-5).
   double high_degree_condition = 1e-2;
   /// Surface fits have degree max(p, min_degree) for elements of order p (fit_degree()): the fit
   /// models the data, the order only says where the nodes go on it. Degree-4 stencils also reach
