@@ -31,6 +31,10 @@ std::string last_line(const std::string& path) {
     while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
     if (!line.empty()) last = line;
   }
+  // The worker names its files by path; clients see them relative to the job folder (server paths
+  // stay private): ".../jobs/<id>/input.stl: facet 7" -> "input.stl: facet 7".
+  const std::string dir = fs::path(path).parent_path().string() + "/";
+  for (size_t at; (at = last.find(dir)) != std::string::npos;) last.erase(at, dir.size());
   if (last.size() > 500) last = last.substr(0, 500) + "...";
   return last;
 }

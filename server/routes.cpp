@@ -9,17 +9,19 @@
 
 #include <httplib.h>
 
-#include <chrono>
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstring>
-#include <set>
-#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <random>
 #include <regex>
+#include <set>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -225,8 +227,9 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
   const double cap_mb = sync ? app.config.max_sync_mb : app.config.max_upload_mb;
   const std::uint64_t cap = (std::uint64_t)(cap_mb * 1024 * 1024);
   if (req.has_header("Content-Length")) {
+    // Above the upload limit is 413 (receive_upload says so) before the quota's 507.
     const std::string cl = req.get_header_value("Content-Length");
-    if (cl.find_first_not_of("0123456789") == std::string::npos && cl.size() < 18 &&
+    if (cl.find_first_not_of("0123456789") == std::string::npos && cl.size() < 18 && std::stoull(cl) <= cap &&
         app.store.disk_bytes() + std::stoull(cl) > (std::uint64_t)(app.config.max_disk_mb * 1024 * 1024)) {
       discard_body(req, res, reader);
       throw ApiError(507, "quota-exceeded", "the data directory quota (" + std::to_string((long long)app.config.max_disk_mb) +
@@ -321,10 +324,12 @@ Job require_job(App& app, const Request& req) {
   return *job;
 }
 
-void require_succeeded(const Job& job) {
+/// `what`: the resource asked for ("result", "stats").
+void require_succeeded(const Job& job, const std::string& what) {
   if (job.status != "succeeded")
     throw ApiError(409, "job-state-conflict",
-                   "job " + job.id + " is " + job.status + "; its result exists only once it has succeeded",
+                   "job " + job.id + " is " + job.status + "; its " + what + " exist" + (what == "stats" ? "" : "s") +
+                       " only once it has succeeded",
                    {{"job_status", job.status}});
 }
 
@@ -390,8 +395,10 @@ void install_routes(httplib::Server& svr, App& app) {
     }
     if (!app.config.token.empty() && req.path.rfind("/v1/", 0) == 0) {
       std::string auth = req.get_header_value("Authorization");
-      const std::string prefix = "Bearer ";
-      bool ok = auth.size() > prefix.size() && auth.compare(0, prefix.size(), prefix) == 0 &&
+      const std::string prefix = "bearer ";  // the scheme is case-insensitive (RFC 9110 11.1)
+      bool ok = auth.size() > prefix.size() &&
+                std::equal(prefix.begin(), prefix.end(), auth.begin(),
+                           [](char a, char b) { return a == std::tolower((unsigned char)b); }) &&
                 constant_time_equal(auth.substr(prefix.size()), app.config.token);
       if (!ok) {
         send_problem(req, res, 401, "unauthorized", "this server needs 'Authorization: Bearer <token>'");
@@ -573,13 +580,13 @@ void install_routes(httplib::Server& svr, App& app) {
           }));
   svr.Get(std::string("/v1/jobs/") + kIdPattern + "/result", guarded([&app](const Request& req, Response& res) {
             Job job = require_job(app, req);
-            require_succeeded(job);
+            require_succeeded(job, "result");
             stream_file(app, res, app.store.job_dir(job.id) + "/result.msh", job.id + ".msh");
             res.status = 200;
           }));
   svr.Get(std::string("/v1/jobs/") + kIdPattern + "/stats", guarded([&app](const Request& req, Response& res) {
             Job job = require_job(app, req);
-            require_succeeded(job);
+            require_succeeded(job, "stats");
             send_json(res, 200, job.stats.is_null() ? nlohmann::json::object() : job.stats);
           }));
   svr.Delete(std::string("/v1/jobs/") + kIdPattern, guarded([&app](const Request& req, Response& res) {

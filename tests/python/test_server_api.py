@@ -304,6 +304,7 @@ class ServerApi(unittest.TestCase):
             self.assertEqual(done["status"], "failed")
             self.assertEqual(done["error"]["code"], "invalid-mesh")
             self.assertTrue(done["error"]["detail"])
+            self.assertNotIn(self.d.data_dir, done["error"]["detail"])  # server paths stay private
             problem(self, raw(self.d.url, "GET", "/v1/jobs/%s/result" % job["id"]), 409, "job-state-conflict")
 
     def test_chunked_body_needs_length(self):
@@ -455,6 +456,8 @@ class ServerAuth(unittest.TestCase):
             problem(self, raw(d.url, "GET", "/v1/jobs", headers={"Authorization": "Bearer s3cret-token2"}), 401,
                     "unauthorized")
             self.assertEqual(raw(d.url, "GET", "/v1/jobs", headers={"Authorization": "Bearer s3cret-token"})[0], 200)
+            # The scheme is case-insensitive (RFC 9110).
+            self.assertEqual(raw(d.url, "GET", "/v1/jobs", headers={"Authorization": "bearer s3cret-token"})[0], 200)
             c = Client(d.url, token="s3cret-token")
             job = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)
             self.assertEqual(job["status"], "succeeded")

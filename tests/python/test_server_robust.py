@@ -7,6 +7,7 @@ import json
 import os
 import shutil
 import signal
+import socket
 import sys
 import tempfile
 import time
@@ -229,6 +230,12 @@ class Robust(unittest.TestCase):
         with self.assertRaises(ProblemError) as e:  # a third upload would exceed the quota
             c.submit(SPHERE, {"order": 2})
         self.assertEqual((e.exception.status, e.exception.type), (507, "quota-exceeded"))
+        # Above the upload limit it is 413, whatever the quota.
+        host, port = d.url.split("//")[1].split(":")
+        with socket.create_connection((host, int(port)), timeout=10) as s:
+            s.sendall(b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/octet-stream\r\n"
+                      b"Content-Length: 999999999999\r\n\r\n")
+            self.assertIn(b" 413 ", s.recv(4096).split(b"\r\n")[0])
         gone = wait_for(lambda: j["id"] not in [x["id"] for x in c.list()], 10)
         self.assertTrue(gone, "expired job still listed")
         self.assertFalse(os.path.exists(os.path.join(d.data_dir, "jobs", j["id"])))
