@@ -175,6 +175,14 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
       d -= d.dot(line.t) * line.t;
       M += d * d.transpose();
     }
+    // Points on the tangent line (to circle_tolerance) determine no circle: with two of them the
+    // least-squares circle was whatever its singular system gave (a straight CAD edge with
+    // one inside vertex between two corners came out an arc of radius h / 2, 7e-4 off at h = 0.1).
+    double offset = 0;
+    for (int i = 0; i < k; ++i) {
+      Eigen::Vector3d d = mesh.V.row(pts[i]).transpose() - line.o;
+      offset = std::max(offset, (d - d.dot(line.t) * line.t).norm());
+    }
     const Eigen::Vector3d m1 = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(M).eigenvectors().col(2);
     Eigen::Matrix2d A = Eigen::Matrix2d::Zero();
     Eigen::Vector2d b = Eigen::Vector2d::Zero();
@@ -187,7 +195,7 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
     }
     const Eigen::Vector2d ab = A.ldlt().solve(b);
     const Eigen::Vector3d c = ab[0] * line.t + ab[1] * m1;
-    bool on_circle = ab.allFinite() && c.norm() > 0;
+    bool on_circle = offset > opt.circle_tolerance * line.h && ab.allFinite() && c.norm() > 0;
     // Every point on it, within 170 degrees of o about the centre (beyond 180 the arc length wraps).
     for (int i = 0; i < k && on_circle; ++i) {
       const Eigen::Vector3d d = mesh.V.row(pts[i]).transpose() - line.o - c;

@@ -2,6 +2,7 @@
 
 #include "engine/core/union_find.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -10,7 +11,8 @@
 
 namespace hocurve {
 
-std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const PlanarPatchOptions& opt) {
+std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const PlanarPatchOptions& opt,
+                                    const std::vector<char>* edge_feature) {
   const int nf = mesh.num_faces();
   std::vector<int> anchor(nf, -1);
   if (!opt.enabled) return anchor;
@@ -34,9 +36,11 @@ std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const P
     coplanar_edge[e] = 1;
     parent[find_root(parent, ef[0])] = find_root(parent, ef[1]);
   }
-  // Per patch: its size, smallest face and the largest face bordering it.
+  // Per patch: its size, smallest face, the largest face bordering it, and whether a border edge
+  // is not a feature.
   std::vector<int> size(nf, 0);
   std::vector<double> smallest(nf, INFINITY), largest_border(nf, 0);
+  std::vector<char> smooth_border(nf, edge_feature == nullptr);
   for (int f = 0; f < nf; ++f) {
     const int r = find_root(parent, f);
     ++size[r];
@@ -45,9 +49,11 @@ std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const P
   for (int e = 0; e < T.num_edges(); ++e) {
     if (coplanar_edge[e]) continue;
     const auto& ef = T.edge_faces[e];
-    for (int f : ef)
+    for (int f : ef) {
+      if (edge_feature && !(*edge_feature)[e]) smooth_border[find_root(parent, f)] = 1;
       for (int g : ef)
         if (g != f) largest_border[find_root(parent, f)] = std::max(largest_border[find_root(parent, f)], area[g]);
+    }
   }
   // Patches holding a vertex with its whole star: every edge around it joins two coplanar faces.
   std::vector<char> star(nf, 0);
@@ -61,7 +67,8 @@ std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const P
   std::vector<int> largest(nf, -1);
   for (int f = 0; f < nf; ++f) {
     const int r = find_root(parent, f);
-    const bool qualifies = size[r] >= 2 && (star[r] || smallest[r] >= opt.area_ratio * largest_border[r]);
+    const bool qualifies =
+        size[r] >= 2 && (star[r] || !smooth_border[r] || smallest[r] >= opt.area_ratio * largest_border[r]);
     if (qualifies && (largest[r] < 0 || area[f] > area[largest[r]])) largest[r] = f;
   }
   for (int f = 0; f < nf; ++f) anchor[f] = largest[find_root(parent, f)];
@@ -69,21 +76,39 @@ std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const P
 }
 
 PlanarPatchResult flatten_planar_patches(const Mesh& mesh, const Topology& T, HighOrderMesh& hm,
-                                         const PlanarPatchOptions& opt) {
+                                         const PlanarPatchOptions& opt, const std::vector<char>* edge_feature) {
   PlanarPatchResult R;
   if (hm.order < 2) return R;
-  const std::vector<int> anchor = planar_patch_faces(mesh, T, opt);
+  const std::vector<int> anchor = planar_patch_faces(mesh, T, opt, edge_feature);
   for (int f = 0; f < mesh.num_faces(); ++f) {
     R.faces += anchor[f] >= 0;
     R.patches += anchor[f] == f;
   }
   if (!R.faces) return R;
-  // Onto the plane of the patch's largest face (all its faces agree to coplanar_angle).
+  // Onto the least-squares plane of the patch's corners (all its faces agree to coplanar_angle):
+  // one face's plane, from float32 corners, tilts by their rounding over its size, which a long
+  // chamfer strip carries to its far end (4e-7 where the input is 4e-8 off).
+  std::vector<Eigen::Vector3d> centre(mesh.num_faces(), Eigen::Vector3d::Zero());
+  std::vector<Eigen::Matrix3d> second(mesh.num_faces(), Eigen::Matrix3d::Zero());
+  std::vector<int> count(mesh.num_faces(), 0);
+  for (int f = 0; f < mesh.num_faces(); ++f)
+    if (anchor[f] >= 0)
+      for (int j = 0; j < 3; ++j) {
+        const Eigen::Vector3d x = mesh.V.row(mesh.F(f, j)).transpose() - mesh.V.row(mesh.F(anchor[f], 0)).transpose();
+        centre[anchor[f]] += x;
+        second[anchor[f]] += x * x.transpose();
+        ++count[anchor[f]];
+      }
+  std::vector<Eigen::Vector3d> normal(mesh.num_faces(), Eigen::Vector3d::Zero());
+  for (int a = 0; a < mesh.num_faces(); ++a) {
+    if (!count[a]) continue;
+    centre[a] /= count[a];
+    const Eigen::Matrix3d cov = second[a] / count[a] - centre[a] * centre[a].transpose();
+    normal[a] = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0);
+    centre[a] += mesh.V.row(mesh.F(a, 0)).transpose();
+  }
   auto project = [&](Eigen::MatrixXd& X, Eigen::Index row, int f) {
-    const int a = anchor[f];
-    const Eigen::Vector3d o = mesh.V.row(mesh.F(a, 0)).transpose(), b = mesh.V.row(mesh.F(a, 1)).transpose(),
-                          c = mesh.V.row(mesh.F(a, 2)).transpose();
-    const Eigen::Vector3d n = (b - o).cross(c - o).normalized();
+    const Eigen::Vector3d &n = normal[anchor[f]], &o = centre[anchor[f]];
     const double d = n.dot(X.row(row).transpose() - o);
     X.row(row) -= d * n.transpose();
     R.max_move = std::max(R.max_move, std::abs(d));

@@ -37,13 +37,19 @@ struct PlanarPatchResult {
   double max_move = 0;     ///< largest node move onto a plane
 };
 
-/// Per face: the largest face of its qualifying planar patch (its plane), or -1.
-std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const PlanarPatchOptions& opt = {});
+/// Per face: the largest face of its qualifying planar patch (its plane), or -1. With
+/// `edge_feature` (per edge, as Features::edge_feature) a patch also qualifies when every edge
+/// bordering it is a feature: a whole flat face between feature curves, such as a chamfer strip two
+/// triangles wide, whose corners' one-sided fits are not exactly planar (float32 noise, a 45 degree
+/// box chamfer: P4 nodes 4e-7 off, the input 4e-8).
+std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const PlanarPatchOptions& opt = {},
+                                    const std::vector<char>* edge_feature = nullptr);
 
-/// Projects the high-order nodes of every qualifying planar patch of mesh (its faces' nodes and
+/// Projects the high-order nodes of every qualifying planar patch of mesh (planar_patch_faces; its faces' nodes and
 /// the nodes of their edges) onto the patch's plane. Nodes on feature curves keep their place
 /// along the curve (an arc bounding a flat face lies in its plane).
 PlanarPatchResult flatten_planar_patches(const Mesh& mesh, const Topology& T, HighOrderMesh& hm,
-                                         const PlanarPatchOptions& opt = {});
+                                         const PlanarPatchOptions& opt = {},
+                                         const std::vector<char>* edge_feature = nullptr);
 
 }  // namespace hocurve

@@ -123,7 +123,7 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     R.long_edges = long_edge.edges;
     R.long_edges_placed = P.long_edges;
     R.long_faces = long_edge.faces;
-    R.planar = flatten_planar_patches(mesh, T, R.mesh, opt.planar);
+    R.planar = flatten_planar_patches(mesh, T, R.mesh, opt.planar, &R.features.edge_feature);
     R.curve_edges = P.curve_edges;
     R.placement_seconds = P.seconds;
   }

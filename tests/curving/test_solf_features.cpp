@@ -270,6 +270,54 @@ TEST_CASE("a wall two triangles high: P5 and P6 no worse than P4") {
   }
 }
 
+TEST_CASE("a box with every edge chamfered stays flat to its float32 input") {
+  // Chamfer strips two triangles wide and triangular corner faces: flat faces without inside
+  // vertices, bounded by features all round. Before: P4 4e-7 off (one face's float32 plane carried
+  // along a strip) and, with those faces flattened, 5.7e-4 at h = 0.1 (the curve fit of a straight
+  // corner-vertex-corner edge took a circle from its singular least-squares system).
+  const double c = 0.08, lx = 1, ly = 0.8, lz = 0.6;
+  for (double h : {0.1, 0.05}) {
+    Mesh m;
+    {
+      GmshSession gmsh_session;
+      gmsh::model::add("chamfered box");
+      const int box = gmsh::model::occ::addBox(0, 0, 0, lx, ly, lz);
+      gmsh::model::occ::synchronize();
+      gmsh::vectorpair curves_dt, out;
+      gmsh::model::getEntities(curves_dt, 1);
+      std::vector<int> curves, surfaces;
+      for (const auto& [dim, tag] : curves_dt) {
+        std::vector<int> up, down;
+        gmsh::model::getAdjacencies(1, tag, up, down);
+        curves.push_back(tag);
+        surfaces.push_back(up.at(0));
+      }
+      gmsh::model::occ::chamfer({box}, curves, surfaces, {c}, out);
+      gmsh::model::occ::synchronize();
+      m = gmsh_surface_mesh(h);
+    }
+    m.V = m.V.cast<float>().cast<double>();  // as an STL stores it
+    // The 26 planes: 6 faces, 12 edge chamfers, 8 corners (|x - corner| sums to 2c).
+    const double L[3] = {lx, ly, lz};
+    const Dist dist = [&](const Eigen::Vector3d& x) {
+      double d = INFINITY;
+      Eigen::Vector3d u;  // distance into the box from the nearer side, per axis
+      for (int a = 0; a < 3; ++a) u[a] = std::min(x[a], L[a] - x[a]), d = std::min(d, std::abs(u[a]));
+      for (int a = 0; a < 3; ++a) d = std::min(d, std::abs(u[(a + 1) % 3] + u[(a + 2) % 3] - c) / std::sqrt(2.0));
+      return std::min(d, std::abs(u.sum() - 2 * c) / std::sqrt(3.0));
+    };
+    CurveOptions o;
+    o.order = 1;
+    const double input = surface_error(curve_mesh(m, o).mesh, dist);
+    o.order = 4;
+    const CurveResult r = curve_mesh(m, o);
+    const double p4 = surface_error(r.mesh, dist);
+    MESSAGE("h = " << h << ", " << m.num_faces() << " triangles: input " << input << ", P4 " << p4);
+    CHECK(p4 <= 2 * input + 1e-9);
+    check_result(m, r);
+  }
+}
+
 TEST_CASE("a CAD export's long straight edge between arcs stays straight") {
   // Where a straight side (one long edge) meets an arc of short edges tangentially, no corner
   // stops the rim's curve fits: fitted across the junction they carried the arc's curvature along
