@@ -119,10 +119,14 @@ JobStore::JobStore(std::string data_dir) : data_dir_(std::move(data_dir)) {
   if (lock_fd_ < 0) throw std::runtime_error("cannot open " + lock + ": " + std::strerror(errno));
   if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
+    if (err != EWOULDBLOCK) {  // a file system without locks (some NFS mounts): run, unguarded
+      log_warn("cannot lock the data directory; make sure no other hocurved uses it",
+               {{"lock", lock}, {"error", std::strerror(err)}});
+      return;
+    }
     ::close(lock_fd_);
     lock_fd_ = -1;
-    throw std::runtime_error(err == EWOULDBLOCK ? "another hocurved is using this data directory (" + lock + " is locked)"
-                                                : "cannot lock " + lock + ": " + std::strerror(err));
+    throw std::runtime_error("another hocurved is using this data directory (" + lock + " is locked)");
   }
 }
 
