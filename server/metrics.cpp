@@ -67,12 +67,15 @@ Metrics::Metrics()
       job_seconds_({0.1, 0.5, 1, 2, 5, 10, 30, 60, 300, 1800}),
       start_time_(now_seconds()) {}
 
-void Metrics::count_request(const std::string& method, const std::string& route, int status, double seconds) {
-  // A bounded label set: any other method string a client sends is "other".
+bool known_http_method(const std::string& method) {
   static const std::set<std::string> known = {"GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS"};
+  return known.count(method) > 0;
+}
+
+void Metrics::count_request(const std::string& method, const std::string& route, int status, double seconds) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    requests_[{known.count(method) ? method : "other", route, status}]++;
+    requests_[{known_http_method(method) ? method : "other", route, status}]++;
   }
   request_seconds_.observe(seconds);
 }

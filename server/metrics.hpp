@@ -10,6 +10,9 @@
 
 namespace hocurve::server {
 
+/// GET, HEAD, POST, PUT, PATCH, DELETE or OPTIONS.
+bool known_http_method(const std::string& method);
+
 /// Fixed-bucket histogram; observe() is thread-safe.
 class Histogram {
  public:
@@ -37,6 +40,7 @@ struct GaugeSnapshot {
 class Metrics {
  public:
   Metrics();
+  /// `method` is counted as "other" unless known_http_method: a bounded label set.
   void count_request(const std::string& method, const std::string& route, int status, double seconds);
   void job_submitted(const std::string& mode);
   void job_finished(const std::string& state, double seconds);

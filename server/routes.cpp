@@ -421,7 +421,7 @@ void install_routes(httplib::Server& svr, App& app) {
         send_problem(req, res, 400, "invalid-request",
                      req.method.empty() || req.path.empty()
                          ? "malformed request: the request line or a header could not be parsed (headers are limited to 8 KiB)"
-                     : allowed_methods("/v1/jobs/{id}").find(req.method) == std::string::npos && req.method != "POST" && req.method != "PUT" && req.method != "PATCH"
+                     : !known_http_method(req.method)
                          ? "unsupported method '" + req.method.substr(0, 16) + "'"
                          : "request could not be processed: a malformed or over-long header (8 KiB per line), or a body that could not be read");
         break;

@@ -88,27 +88,32 @@ PlanarPatchResult flatten_planar_patches(const Mesh& mesh, const Topology& T, Hi
   // Onto the least-squares plane of the patch's corners (all its faces agree to coplanar_angle):
   // one face's plane, from float32 corners, tilts by their rounding over its size, which a long
   // chamfer strip carries to its far end (4e-7 where the input is 4e-8 off).
-  std::vector<Eigen::Vector3d> centre(mesh.num_faces(), Eigen::Vector3d::Zero());
-  std::vector<Eigen::Matrix3d> second(mesh.num_faces(), Eigen::Matrix3d::Zero());
-  std::vector<int> count(mesh.num_faces(), 0);
+  std::vector<int> patch(mesh.num_faces(), -1);  // per anchor face: its patch's number
+  int np = 0;
+  for (int f = 0; f < mesh.num_faces(); ++f)
+    if (anchor[f] == f) patch[f] = np++;
+  std::vector<Eigen::Vector3d> centre(np, Eigen::Vector3d::Zero()), normal(np);
+  std::vector<Eigen::Matrix3d> second(np, Eigen::Matrix3d::Zero());
+  std::vector<int> count(np, 0);
   for (int f = 0; f < mesh.num_faces(); ++f)
     if (anchor[f] >= 0)
-      for (int j = 0; j < 3; ++j) {
+      for (int j = 0; j < 3; ++j) {  // relative to the anchor's first corner: no cancellation
+        const int i = patch[anchor[f]];
         const Eigen::Vector3d x = mesh.V.row(mesh.F(f, j)).transpose() - mesh.V.row(mesh.F(anchor[f], 0)).transpose();
-        centre[anchor[f]] += x;
-        second[anchor[f]] += x * x.transpose();
-        ++count[anchor[f]];
+        centre[i] += x;
+        second[i] += x * x.transpose();
+        ++count[i];
       }
-  std::vector<Eigen::Vector3d> normal(mesh.num_faces(), Eigen::Vector3d::Zero());
-  for (int a = 0; a < mesh.num_faces(); ++a) {
-    if (!count[a]) continue;
-    centre[a] /= count[a];
-    const Eigen::Matrix3d cov = second[a] / count[a] - centre[a] * centre[a].transpose();
-    normal[a] = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0);
-    centre[a] += mesh.V.row(mesh.F(a, 0)).transpose();
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    if (anchor[f] != f) continue;
+    const int i = patch[f];
+    centre[i] /= count[i];
+    const Eigen::Matrix3d cov = second[i] / count[i] - centre[i] * centre[i].transpose();
+    normal[i] = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0);
+    centre[i] += mesh.V.row(mesh.F(f, 0)).transpose();
   }
   auto project = [&](Eigen::MatrixXd& X, Eigen::Index row, int f) {
-    const Eigen::Vector3d &n = normal[anchor[f]], &o = centre[anchor[f]];
+    const Eigen::Vector3d &n = normal[patch[anchor[f]]], &o = centre[patch[anchor[f]]];
     const double d = n.dot(X.row(row).transpose() - o);
     X.row(row) -= d * n.transpose();
     R.max_move = std::max(R.max_move, std::abs(d));
