@@ -169,7 +169,7 @@ struct Decimator {
   const DecimateOptions& opt;
   std::vector<Eigen::Vector3d> X;
   std::vector<std::array<int, 3>> F;
-  std::vector<char> face_alive, v_alive, vfeat, vcorner, vbnd;
+  std::vector<char> face_alive, v_alive, vfeat, vcorner, vbnd, vpinned;
   std::vector<std::vector<int>> vf;
   std::vector<unsigned> ver;
   std::vector<Quadric> Q;
@@ -277,6 +277,11 @@ Reason Decimator::check_and_collapse(const Plan& P, bool may_defer, double& devi
   for (int x : ns)
     if (std::find(nr.begin(), nr.end(), x) != nr.end()) ++common;
   if (common != ne) return Reason::link;
+  // No new edge at a pinned vertex (a copy at a split point, rejoined afterwards): the link
+  // condition sees one copy, and the new edge may duplicate an edge of another copy (a raw Thingi10K
+  // file, pinched where faces overlap, came out with an edge of four faces after one collapse).
+  for (int x : nr)
+    if (x != s && (vpinned[s] || vpinned[x]) && std::find(ns.begin(), ns.end(), x) == ns.end()) return Reason::link;
   // Valence and size.
   const int new_deg = static_cast<int>(vf[s].size() + vf[r].size()) - 2 * ne;
   if (new_deg < (vbnd[s] ? 1 : 3)) return Reason::valence;
@@ -508,6 +513,8 @@ DecimateResult decimate(const Mesh& fine, const DecimateOptions& opt) {
   D.v_alive.assign(nv, 1);
   D.vfeat = fm.vertex;
   D.vcorner = fm.corner;
+  D.vpinned.assign(nv, 0);
+  for (int v : opt.pinned_vertices) D.vpinned[v] = 1;
   D.vbnd.assign(nv, 0);
   D.ver.assign(nv, 0);
   D.vf.resize(nv);

@@ -145,6 +145,10 @@ def main(argv):
         check(s3["decimation"]["split_vertices"] == 2 and s3["lifting"]["validity"]["invalid_after"] == 0
               and n == s3["decimation"]["faces"] and n < 202,
               "non-manifold vertices: 2 split, %d P4 elements of 202 read back, 0 invalid" % n)
+        # Its faces overlap at a pinch point: no collapse may give an edge a second pair of faces there.
+        conn = np.asarray(conns[0]).reshape(-1, 15) if types == [23] else np.zeros((0, 15))
+        uses = sorted(set(edge_sets(conn, 4).values()))
+        check(uses == [2], "non-manifold vertices: every edge of the coarse mesh has two elements (uses %s)" % uses)
 
     # Non-manifold edges: a cube with an inner wall at z = 0.5, written one face at a time (every face
     # its own vertices: welded on reading). The wall's rim has three faces per edge: cut open into
@@ -268,6 +272,14 @@ def main(argv):
                              (["--order", "4", "--faces", "100", "--max-faces", "200"], 2, "--max-faces alone")]:
         r = subprocess.run([hoc, "coarsen", src, "-o", bad] + args, capture_output=True, text=True, timeout=60)
         check(r.returncode == code and not os.path.exists(bad), "%s: exit %d, no output" % (what, r.returncode))
+    for args, what in [(["-o", os.path.join(work, "no-such-folder", "x.msh")], "-o in a missing folder"),
+                       (["-o", work], "-o a folder"),
+                       (["-o", bad, "--stats", os.path.join(work, "no-such-folder", "s.json")], "--stats in a missing folder"),
+                       (["-o", bad, "--ratio", "1.5"], "--ratio 1.5")]:
+        r = subprocess.run([hoc, "coarsen", src, "--order", "4"] + (["--faces", "100"] if "--ratio" not in args else [])
+                           + args, capture_output=True, text=True, timeout=60)
+        check(r.returncode == 2 and not os.path.exists(bad) and r.stderr.count("\n") == 1,
+              "%s: exit %d before any work, one line: %s" % (what, r.returncode, r.stderr.strip()))
     empty = os.path.join(work, "empty.obj")
     open(empty, "w").write("# nothing\n")
     r = subprocess.run([hoc, "coarsen", empty, "-o", bad, "--order", "4", "--faces", "100"], capture_output=True,
