@@ -14,6 +14,7 @@
 
 #include <tbb/global_control.h>
 
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -36,7 +37,7 @@ const std::vector<OptionSpec> kCoarsenOptions = {
     {"max-deviation", true, "refuse collapses moving a dense vertex > F x diagonal off the coarse faces (default 0.015; 0: off)"},
     {"redecimate", true, "decimate again up to K times, weighting up where the curved mesh strays most, and keep the closest (default 6; 0: off)"},
     {"tolerance", true, "then grow the face count and split edges while the curved mesh is further than F x diagonal from the input (default 0: off)"},
-    {"max-faces", true, "with --tolerance: never more coarse triangles than this (default: the input's count)"},
+    {"max-faces", true, "with --tolerance: growing and splitting stop at this many coarse triangles (default: the input's count); a decimation that could not get below it is kept as it is"},
     {"long-edge-ratio", true, "dense edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
     {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0.01; 0: only invalid ones; e.g. 0.1)"},
     {"progress", false, "print progress as JSON lines on stdout"},
@@ -170,11 +171,14 @@ int run_coarsen(int argc, char** argv) {
   if (!a.has("output")) throw UsageError("coarsen needs -o OUTPUT.msh");
   if (a.has("faces") == a.has("ratio")) throw UsageError("coarsen needs exactly one of --faces N or --ratio R");
   const std::string input = a.positional[0], output = a.get("output");
+  check_output_path("-o", output);
+  if (a.has("stats")) check_output_path("--stats", a.get("stats"));
 
   DecimateOptions dopt;
   if (a.has("faces")) dopt.target_faces = static_cast<int>(a.get_int("faces", 0, 4, 100000000));
-  else dopt.target_ratio = a.get_double("ratio", 0.04, 0.0, 1.0);
-  if (!(dopt.target_faces > 0 || dopt.target_ratio > 0)) throw UsageError("--ratio must be in (0, 1]");
+  else dopt.target_ratio = a.get_double("ratio", 0.04, -HUGE_VAL, HUGE_VAL);
+  if (!(dopt.target_faces > 0 || (dopt.target_ratio > 0 && dopt.target_ratio <= 1)))
+    throw UsageError("--ratio must be in (0, 1], got " + a.get("ratio"));
   dopt.feature_angle_deg = a.get_double("feature-angle", dopt.feature_angle_deg, 0.0, 180.0);
   dopt.max_deviation = a.get_double("max-deviation", dopt.max_deviation, 0.0, 1.0);
   LiftOptions lopt;

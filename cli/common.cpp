@@ -4,8 +4,10 @@
 
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <unistd.h>
 
 namespace hocurve::cli {
 
@@ -68,6 +70,17 @@ nlohmann::json input_json(const std::string& path, const LoadedInput& in) {
        }()},
       {"seconds", {{"read", in.read_seconds}, {"validate", in.validate_seconds}}},
   };
+}
+
+void check_output_path(const std::string& option, const std::string& path) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(path).has_parent_path() ? fs::path(path).parent_path() : fs::path(".");
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw UsageError(option + " " + path + " is a directory, not a file");
+  if (!fs::is_directory(dir, ec))
+    throw UsageError("cannot write " + option + " " + path + ": the folder " + dir.string() + " does not exist");
+  if (::access(dir.c_str(), W_OK) != 0)
+    throw UsageError("cannot write " + option + " " + path + ": the folder " + dir.string() + " is not writable");
 }
 
 void write_json_file(const std::string& path, const nlohmann::json& j) {

@@ -29,6 +29,10 @@ LoadedInput load_input(const std::string& path, const Progress& progress);
 /// The input part of the stats JSON (format, counts, repairs, warnings, timings).
 nlohmann::json input_json(const std::string& path, const LoadedInput& in);
 
+/// Throws UsageError (exit 2) unless `path`'s folder exists and is writable: checked before any
+/// work, so that a mistyped -o or --stats does not cost a whole run and an "internal error".
+void check_output_path(const std::string& option, const std::string& path);
+
 /// Writes JSON to a file atomically (temporary file, then rename).
 void write_json_file(const std::string& path, const nlohmann::json& j);
 

@@ -54,6 +54,8 @@ int run_curve(int argc, char** argv) {
   if (a.positional.size() != 1) throw UsageError("curve needs exactly one INPUT file (see --help)");
   if (!a.has("output")) throw UsageError("curve needs -o OUTPUT.msh");
   const std::string input = a.positional[0], output = a.get("output");
+  check_output_path("-o", output);
+  if (a.has("stats")) check_output_path("--stats", a.get("stats"));
 
   CurveOptions opt;
   opt.order = static_cast<int>(a.get_int("order", 4, 1, 6));
