@@ -39,6 +39,10 @@ RedecimateResult redecimate_where_far(const Mesh& fine, const DecimateOptions& d
     R.message = "no re-decimation asked";
     return R;
   }
+  if (dec.collapses == 0) {  // the input itself (a target at or above its count): every round is the same
+    R.message = "nothing was decimated: no re-decimation";
+    return R;
+  }
   // Straying elements, and whether they are few: first on a rough sample (the share barely depends
   // on it, and on large smooth meshes the full measure costs more than the lifting).
   auto count_straying = [&](const std::vector<double>& dev) {
