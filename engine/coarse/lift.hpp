@@ -68,7 +68,15 @@ struct LiftOptions {
   /// elements where these differ take the one closest to the dense input (choose_closest_candidate).
   bool slide_candidates = true;
   bool repair = true;          ///< run repair_validity (else only check_validity)
-  ValidityOptions validity;
+  /// With the fixed steps only (ValidityOptions::bisect off): snapped coarse nodes carry the dense
+  /// surface's bumps, and the larger steps smooth them. Measured (bench_lift real, P4 Hausdorff /
+  /// diagonal at 4%, after the re-decimation rounds, fixed -> bisection): bunny 0.611 -> 0.793%,
+  /// skull 0.854 -> 0.986%, king 1.348 -> 1.394%, armadillo 0.338 -> 0.349% (spot 0.571 -> 0.406%).
+  ValidityOptions validity = [] {
+    ValidityOptions v;
+    v.bisect = false;
+    return v;
+  }();
   /// Called on the calling thread between stages with the stage name and the fraction done (0..1).
   std::function<void(const std::string& stage, double fraction)> progress;
 };

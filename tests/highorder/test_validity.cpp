@@ -421,6 +421,36 @@ TEST_CASE("repair: a wildly perturbed sphere ends valid, far elements untouched"
   }
 }
 
+TEST_CASE("repair: the quality floor takes off only what it needs (bisection), invalid elements fixed steps") {
+  // One P2 triangle (0,0),(1,0),(0,1) with its edge-0 node at (1/2, delta): min J = 1 - 4 delta
+  // (test above). Scaled by s, the displacement clears the floor 0.01 for 4 delta s <= 0.99.
+  Mesh m;
+  m.V = (Eigen::MatrixXd(3, 3) << 0, 0, 0, 1, 0, 0, 0, 1, 0).finished();
+  m.F = (Eigen::MatrixXi(1, 3) << 0, 1, 2).finished();
+  const Topology T = build_topology(m.F, 3);
+  for (double delta : {0.249, 0.3})
+    for (bool bisect : {true, false}) {
+      HighOrderMesh hm = make_straight_high_order(m, T, 2);
+      int e01 = -1;
+      for (int e = 0; e < 3; ++e)
+        if (std::min(hm.E(e, 0), hm.E(e, 1)) == 0 && std::max(hm.E(e, 0), hm.E(e, 1)) == 1) e01 = e;
+      REQUIRE(e01 >= 0);
+      hm.edge_nodes(e01, 1) = delta;
+      ValidityOptions opt;
+      opt.bisect = bisect;
+      const ValidityReport rep = repair_validity(hm, opt);
+      CHECK(rep.invalid_before == (delta > 0.25 ? 1 : 0));
+      CHECK(rep.invalid_after == 0);
+      CHECK(hm.edge_nodes(e01, 0) == doctest::Approx(0.5));
+      if (delta > 0.25 || !bisect) {  // one step of 0.8: J = 1 - 3.2 delta, above the floor
+        CHECK(hm.edge_nodes(e01, 1) == doctest::Approx(0.8 * delta).epsilon(1e-12));
+      } else {  // 0.2475, to the bisection's 2^-12 of delta
+        CHECK(hm.edge_nodes(e01, 1) <= 0.2475 + 1e-12);
+        CHECK(hm.edge_nodes(e01, 1) >= 0.2475 - delta / 4096 - 1e-12);
+      }
+    }
+}
+
 TEST_CASE("repair with zero shrink steps goes straight exactly like make_straight_high_order") {
   for (NodeDistribution dist : {NodeDistribution::Equispaced, NodeDistribution::Lobatto}) {
     const int p = 5;
