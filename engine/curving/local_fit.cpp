@@ -1023,11 +1023,11 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
       const int w = order[i];
       s.quadric_gate_refused = false;
       R.fits[w] = fit_wedge(mesh, T, W, w, wedge_degree(W, w, p, opt), support, sstart, sindex, opt, s);
-      // Fits above min_degree (P5, P6) that are barely determined, or short of points for it and
-      // lowered below min_degree, refit at min_degree: on its smaller stencil (and reference).
+      // Fits above min_degree (P5, P6) that are barely determined, or lowered to min_degree or
+      // below, refit at min_degree: on its smaller stencil (and reference).
       const LocalFit& hi = R.fits[w];
       if ((hi.degree > opt.min_degree && hi.pivot_ratio < opt.high_degree_condition) ||
-          (hi.requested_degree > opt.min_degree && hi.degree < opt.min_degree)) {
+          (hi.requested_degree > opt.min_degree && hi.degree <= opt.min_degree)) {
         LocalFit low = fit_wedge(mesh, T, W, w, opt.min_degree, support, sstart, sindex, opt, s);
         if (low.degree == opt.min_degree) {
           low.requested_degree = R.fits[w].requested_degree;

@@ -127,7 +127,9 @@ struct FitOptions {
   /// torus, ellipsoid unchanged. (Comparing the two fits' residuals instead picked degree 4 on
   /// the torus where degree 6 was 2.5x better.) So do P5 and P6 fits lowered below min_degree for
   /// want of points (a hole's wall three rows high in a 0.02 thick plate at h = 0.05: degree 3 over
-  /// the plane, P6 2.4e-3, worse than linear 1.7e-3; refit: 7.1e-5, P4 3.1e-5).
+  /// the plane, P6 2.4e-3, worse than linear 1.7e-3; refit: 7.1e-5, P4 3.1e-5), or lowered to
+  /// min_degree itself (the safeguard, on the degree-6 stencil, over the plane: a cylinder on a
+  /// 45 degree chamfer one triangle wide, P6 2.95e-3 -> 1.23e-4, P4 1.24e-4).
   double high_degree_condition = 1e-2;
   /// Surface fits have degree max(p, min_degree) for elements of order p (fit_degree()): the fit
   /// models the data, the order only says where the nodes go on it. Degree-4 stencils also reach

@@ -20,6 +20,10 @@ namespace hocurve {
 Eigen::Vector3d blend_point(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits,
                             int f, const Eigen::Vector3d& xi);
 
+/// The blend of x's projections onto the corner fits of face f, with weights xi.
+Eigen::Vector3d blend_projection(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits, int f,
+                                 const Eigen::Vector3d& xi, const Eigen::Vector3d& x);
+
 /// Barycentric coordinates, in face f (one of edge e's faces), of the point at parameter t from
 /// E(e,0) to E(e,1). Placing an edge's nodes through one face per edge keeps them conforming.
 Eigen::Vector3d edge_barycentric(const Mesh& mesh, const Topology& T, int e, int f, double t);

@@ -270,6 +270,52 @@ TEST_CASE("a wall two triangles high: P5 and P6 no worse than P4") {
   }
 }
 
+TEST_CASE("a chamfer one triangle wide under a cylinder: face nodes follow the rim circle") {
+  // Unit cylinder on a 45 degree chamfer 0.15 high (a cone), h = 0.35. The rim circles move the
+  // edges on them radially, in the cone's tangent plane; the face nodes beside them, placed along
+  // the fits' normals, were crowded against those edges: 3 elements invalid before repair at P6,
+  // the repair then pulled the rim's curvature out of them (P6 4.7e-3, P4 1.2e-4).
+  const double c = 0.15;
+  Mesh m;
+  {
+    GmshSession gmsh_session;
+    gmsh::model::add("chamfered cylinder");
+    const int cone = gmsh::model::occ::addCone(0, 0, 0, 0, 0, c, 1 - c, 1);
+    const int cyl = gmsh::model::occ::addCylinder(0, 0, c, 0, 0, 1 - c, 1);
+    gmsh::vectorpair out;
+    std::vector<gmsh::vectorpair> map;
+    gmsh::model::occ::fuse({{3, cone}}, {{3, cyl}}, out, map);
+    gmsh::model::occ::synchronize();
+    m = gmsh_surface_mesh(0.35);
+  }
+  // Exact distance: to the meridian profile, in the (r, z) half-plane.
+  const Dist dist = [&](const Eigen::Vector3d& x) {
+    const Eigen::Vector2d q(std::hypot(x[0], x[1]), x[2]);
+    const Eigen::Vector2d prof[5] = {{0, 0}, {1 - c, 0}, {1, c}, {1, 1}, {0, 1}};
+    double d = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < 4; ++i) {
+      const Eigen::Vector2d a = prof[i], ab = prof[i + 1] - prof[i];
+      const double t = std::clamp((q - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+      d = std::min(d, (q - a - t * ab).norm());
+    }
+    return d;
+  };
+  CurveOptions o;
+  o.order = 1;
+  const double linear = surface_error(curve_mesh(m, o).mesh, dist);
+  o.order = 4;
+  const double p4 = surface_error(curve_mesh(m, o).mesh, dist);
+  o.order = 6;
+  const CurveResult r6 = curve_mesh(m, o);
+  const double p6 = surface_error(r6.mesh, dist);
+  MESSAGE(m.num_faces() << " triangles: linear " << linear << ", P4 " << p4 << ", P6 " << p6 << ", P6 invalid before repair "
+                        << r6.validity.invalid_before);
+  CHECK(r6.validity.invalid_before == 0);
+  CHECK(p4 * 100 < linear);
+  CHECK(p6 <= 2 * p4);
+  check_result(m, r6);
+}
+
 TEST_CASE("a box with every edge chamfered stays flat to its float32 input") {
   // Chamfer strips two triangles wide and triangular corner faces: flat faces without inside
   // vertices, bounded by features all round. Before: P4 4e-7 off (one face's float32 plane carried
