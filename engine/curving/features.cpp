@@ -250,15 +250,38 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
     // --- 2. corners: curves meet or end (feature valence != 2) or turn sharply ----------------
     for (int e = 0; e < ne; ++e)
       if (R.edge_feature[e]) R.vertex_feature[T.E(e, 0)] = R.vertex_feature[T.E(e, 1)] = 1;
+    // The turn of the curve at valence-2 feature vertex v walked from its neighbour u: angle and
+    // axis (din x dout). False at curve ends and junctions.
+    auto turn_from = [&](int u, int v, double& angle, Eigen::Vector3d& axis, int* next = nullptr) {
+      int fe[2];
+      if (feature_edges_of(v, fe) != 2) return false;
+      const int w = T.other(fe[0], v) == u ? T.other(fe[1], v) : T.other(fe[0], v);
+      const Eigen::Vector3d din = mesh.V.row(v) - mesh.V.row(u), dout = mesh.V.row(w) - mesh.V.row(v);
+      angle = angle_deg(din, dout);
+      axis = din.cross(dout).normalized();
+      if (next) *next = w;
+      return true;
+    };
     for (int v = 0; v < nv; ++v) {
       if (!R.vertex_feature[v]) continue;
       int fe[2];
-      const int val = feature_edges_of(v, fe);
-      bool corner = val != 2;
+      bool corner = feature_edges_of(v, fe) != 2;
       if (!corner) {
-        const int a = T.other(fe[0], v), b = T.other(fe[1], v);
-        const Eigen::Vector3d din = mesh.V.row(v) - mesh.V.row(a), dout = mesh.V.row(b) - mesh.V.row(v);
-        corner = angle_deg(din, dout) > opt.corner_angle_deg;
+        const int a = T.other(fe[0], v);
+        int b = -1;
+        double angle = 0, an = 0, bn = 0;
+        Eigen::Vector3d axis, xa, xb;
+        turn_from(a, v, angle, axis, &b);
+        corner = angle > opt.corner_angle_deg;
+        // A coarse circle turns alike, about the same axis, at v and at both its neighbours (a
+        // zigzag turns about opposite axes).
+        if (corner && angle <= opt.coarse_circle_max_deg) {
+          int a2 = -1;
+          const bool circle = turn_from(v, a, an, xa, &a2) && turn_from(v, b, bn, xb) && an * 1.5 >= angle &&
+                              an <= 1.5 * angle && bn * 1.5 >= angle && bn <= 1.5 * angle &&
+                              (-xa).dot(axis) >= 0.9 && xb.dot(axis) >= 0.9;
+          corner = !circle;
+        }
       }
       if (corner) R.vertex_corner[v] = 1, ++R.corners;
     }

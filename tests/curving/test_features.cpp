@@ -432,7 +432,25 @@ TEST_CASE("open boundary: corners where the boundary turns more than corner_angl
   check_curves(polygon_disk(16), F);
   FeatureOptions tight;
   tight.corner_angle_deg = 20;
+  CHECK(detect(polygon_disk(16), tight).corners == 0);  // turning alike: a coarse circle
+  tight.coarse_circle_max_deg = 0;
   CHECK(detect(polygon_disk(16), tight).corners == 16);
+  // A 10-gon turns 36° alike at every vertex: a coarse circle (coarse_circle_max_deg), one closed loop;
+  // not with that turned off.
+  F = detect(polygon_disk(10));
+  CHECK(F.corners == 0);
+  CHECK(F.closed_curves == 1);
+  check_curves(polygon_disk(10), F);
+  FeatureOptions polygons;
+  polygons.coarse_circle_max_deg = 0;
+  CHECK(detect(polygon_disk(10), polygons).corners == 10);
+  // A vertex turning 36° between neighbours that do not (a 16-gon with one vertex pulled out) stays a corner.
+  // Vertex 1 at radius 1.05 turns 36.5°, its neighbours 15.5°.
+  Mesh bump = polygon_disk(16);
+  bump.V.row(1) *= 1.05;
+  const Features B = detect(bump);
+  CHECK(B.vertex_corner[1] == 1);
+  CHECK(B.corners == 1);
 }
 
 TEST_CASE("non-manifold edge: three fins on one edge") {
