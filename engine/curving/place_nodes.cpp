@@ -108,7 +108,7 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
   });
   if (npf > 0) {
     const JacobianBasis basis(p);
-    ValidityOptions floor;  // the repair's quality floor: below it the repair would pull the face
+    ValidityOptions floor;  // the repair's default quality floor (not --min-jacobian): below it the face would be pulled
     floor.min_scaled_jacobian = floor.quality_floor;
     tbb::parallel_for(tbb::blocked_range<int>(0, nf), [&](const tbb::blocked_range<int>& r) {
       for (int f = r.begin(); f < r.end(); ++f) {
