@@ -242,6 +242,12 @@ bool JobStore::remove(const std::string& id, std::string* error) {
     if (!it->second.idempotency_key.empty()) idempotency_.erase(it->second.idempotency_key);
     jobs_.erase(it);
     versions_.erase(id);
+    // The space is freed in the same step as the job leaves the list: a client that sees it gone
+    // and uploads again must not meet the quota still holding it.
+    std::uint64_t bytes = 0;
+    for (auto& f : fs::directory_iterator(job_dir(id), ec))
+      if (f.is_regular_file(ec)) bytes += f.file_size(ec);
+    disk_bytes_ -= std::min(bytes, disk_bytes_);
     changed_.notify_all();
   }
   {
@@ -249,11 +255,7 @@ bool JobStore::remove(const std::string& id, std::string* error) {
     written_.erase(id);
   }
   std::error_code ec;
-  std::uint64_t bytes = 0;
-  for (auto& f : fs::directory_iterator(job_dir(id), ec))
-    if (f.is_regular_file()) bytes += f.file_size();
   fs::remove_all(job_dir(id), ec);
-  add_disk_bytes(-(std::int64_t)bytes);
   return true;
 }
 

@@ -17,10 +17,12 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <memory>
 #include <random>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -46,6 +48,13 @@ constexpr const char* kProblemType = "application/problem+json";
 // Per-request data of the HTTP worker thread that runs the request (pre-routing -> logger).
 thread_local std::chrono::steady_clock::time_point t_request_start;
 thread_local std::string t_request_id;
+
+/// A MiB figure as people write it: "10240", "0.3".
+std::string format_mib(double mib) {
+  std::ostringstream out;
+  out << std::setprecision(6) << mib;
+  return out.str();
+}
 
 std::string new_request_id() {
   static thread_local std::mt19937_64 rng{std::random_device{}()};
@@ -232,7 +241,7 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
     if (cl.find_first_not_of("0123456789") == std::string::npos && cl.size() < 18 && std::stoull(cl) <= cap &&
         app.store.disk_bytes() + std::stoull(cl) > (std::uint64_t)(app.config.max_disk_mb * 1024 * 1024)) {
       discard_body(req, res, reader);
-      throw ApiError(507, "quota-exceeded", "the data directory quota (" + std::to_string((long long)app.config.max_disk_mb) +
+      throw ApiError(507, "quota-exceeded", "the data directory quota (" + format_mib(app.config.max_disk_mb) +
                                                 " MiB) is used up; delete jobs or retry later");
     }
   }

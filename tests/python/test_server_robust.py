@@ -230,6 +230,7 @@ class Robust(unittest.TestCase):
         with self.assertRaises(ProblemError) as e:  # a third upload would exceed the quota
             c.submit(SPHERE, {"order": 2})
         self.assertEqual((e.exception.status, e.exception.type), (507, "quota-exceeded"))
+        self.assertIn("quota (0.3 MiB)", e.exception.detail)
         # Above the upload limit it is 413, whatever the quota.
         host, port = d.url.split("//")[1].split(":")
         with socket.create_connection((host, int(port)), timeout=10) as s:
@@ -238,7 +239,7 @@ class Robust(unittest.TestCase):
             self.assertIn(b" 413 ", s.recv(4096).split(b"\r\n")[0])
         gone = wait_for(lambda: j["id"] not in [x["id"] for x in c.list()], 10)
         self.assertTrue(gone, "expired job still listed")
-        self.assertFalse(os.path.exists(os.path.join(d.data_dir, "jobs", j["id"])))
+        self.assertTrue(wait_for(lambda: not os.path.exists(os.path.join(d.data_dir, "jobs", j["id"])), 10))
         c.wait(c.submit(SPHERE, {"order": 2}, retries=0)["id"], timeout=30)  # space was freed
 
 
