@@ -1,6 +1,7 @@
 #include "engine/curving/cone_points.hpp"
 
 #include <Eigen/Geometry>
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -15,9 +16,9 @@ namespace {
 /// fan normal n and r the distance, s_w / s_u = (r_w / r_u)^e: e ~ 0 on a cone (a ruling keeps its
 /// slope), ~1 on a smooth surface (the elevation grows with the distance), ~-1 for a spike (the same
 /// drop at any distance). True when the median e is nearer 0 than both.
-bool descends_like_cone(const Mesh& mesh, const Topology& T, int v, const Eigen::Vector3d& n, std::vector<int>& ring,
-                        std::vector<double>& exps) {
-  const Eigen::Vector3d o = mesh.V.row(v).transpose();
+/// ring = v's 1-ring, then the rest of its 2-ring sorted (it may hold v and 1-ring vertices again);
+/// returns the 1-ring's size.
+long two_ring(const Topology& T, int v, std::vector<int>& ring) {
   ring.clear();
   auto [eb, ee] = T.edges_of(v);
   for (const int* e = eb; e != ee; ++e) ring.push_back(T.other(*e, v));
@@ -26,6 +27,40 @@ bool descends_like_cone(const Mesh& mesh, const Topology& T, int v, const Eigen:
     for (auto [fb, fe] = T.edges_of(ring[i]); fb != fe; ++fb) ring.push_back(T.other(*fb, ring[i]));
   std::sort(ring.begin() + n1, ring.end());
   ring.erase(std::unique(ring.begin() + n1, ring.end()), ring.end());
+  return n1;
+}
+
+/// How far v lies from the quadric height function z(x, y) over the fan normal n fitted to its
+/// 2-ring without it, over the 1-ring's mean edge length h. A smooth surface's quadric predicts v
+/// to O(h^3); a cone's rings round its apex off by ~0.65 h cot(half-angle). -1: too few points.
+double apex_miss(const Mesh& mesh, int v, const Eigen::Vector3d& n, const std::vector<int>& ring, long n1) {
+  const Eigen::Vector3d o = mesh.V.row(v).transpose();
+  double h = 0;
+  for (long i = 0; i < n1; ++i) h += (mesh.V.row(ring[i]).transpose() - o).norm();
+  h /= static_cast<double>(n1);
+  const Eigen::Vector3d t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+  Eigen::MatrixXd A(static_cast<long>(ring.size()), 6);
+  Eigen::VectorXd z(A.rows());
+  long rows = 0;
+  for (size_t i = 0; i < ring.size(); ++i) {
+    if (ring[i] == v || (i >= static_cast<size_t>(n1) && std::find(ring.begin(), ring.begin() + n1, ring[i]) != ring.begin() + n1))
+      continue;
+    const Eigen::Vector3d d = (mesh.V.row(ring[i]).transpose() - o) / h;
+    const double x = d.dot(t1), y = d.dot(t2);
+    A.row(rows) << 1, x, y, x * x, x * y, y * y;
+    z(rows++) = d.dot(n);
+  }
+  if (rows < 9) return -1;
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A.topRows(rows));
+  if (qr.rank() < 6) return -1;
+  const Eigen::VectorXd c = qr.solve(z.head(rows));
+  return std::abs(c(0));
+}
+
+bool descends_like_cone(const Mesh& mesh, const Topology& T, int v, const Eigen::Vector3d& n, std::vector<int>& ring,
+                        std::vector<double>& exps) {
+  const Eigen::Vector3d o = mesh.V.row(v).transpose();
+  const long n1 = two_ring(T, v, ring);
   auto unit_tangent = [&](const Eigen::Vector3d& d) { return (d - d.dot(n) * n).normalized(); };
   exps.clear();
   for (size_t i = static_cast<size_t>(n1); i < ring.size(); ++i) {
@@ -103,6 +138,13 @@ std::vector<char> cone_points(const Mesh& mesh, const Topology& T, const std::ve
     // 8x every neighbour, not only most of them: the vertices of a weak crease share theirs along
     // it, a lone spike's neighbours make up for it, a small blend between fillets spreads it.
     cone[v] = std::abs(defect[v]) / area[v] > opt.curvature_ratio * *std::max_element(k.begin(), k.end());
+    // A smooth surface's rings predict v; a cone's round its apex off (apex_miss). Irregular
+    // meshes (marching tetrahedra: a vertex amid slivers) can pass the ratio test by their areas.
+    if (cone[v] && normal[v].norm() > 0) {
+      const long n1 = two_ring(T, v, ring);
+      const double miss = apex_miss(mesh, v, normal[v].normalized(), ring, n1);
+      if (miss >= 0 && miss < opt.min_apex_miss * std::sqrt(std::abs(defect[v]) / std::numbers::pi)) cone[v] = 0;
+    }
   }
   return cone;
 }

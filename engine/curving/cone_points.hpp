@@ -27,6 +27,12 @@ struct ConeOptions {
   /// surface it doubles). Measured: P4 on cones of half-angle 84 / 87 degrees was 5.7x worse than
   /// the linear input (the fits round the apex off).
   double min_blunt_defect_deg = 0.25;
+  /// And the vertex must stand off the quadric fitted to its 2-ring without it by at least this
+  /// fraction of what a regular cone of its defect d would (h sqrt(|d| / pi), h its 1-ring's mean
+  /// edge length; the cot of the half-angle for small d): cone meshes of defects 0.45-199 degrees
+  /// stand off 0.56-0.67 of that, the false cones of marching-tetrahedra spheres and tori (defects
+  /// 0.25-12.8 degrees, passing the ratio test by their irregular areas) at most 0.12.
+  double min_apex_miss = 0.25;
 };
 
 /// Per vertex, 1 for a cone point. Only vertices off the features (vertex_feature[v] == 0; may
