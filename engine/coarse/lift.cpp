@@ -85,13 +85,13 @@ Eigen::MatrixXd unit_face_normals(const Mesh& m) {
 }
 
 /// A coarse fit is sane when it moves no point of its wedge's faces by more than
-/// max_offset x sqrt(2 area) (as the dense fits' sanity bound).
-bool coarse_fit_sane(const Mesh& m, const Wedges& W, int w, const LocalFit& fit, double max_offset) {
+/// fit_offset_limit (as the dense fits' sanity bound).
+bool coarse_fit_sane(const Mesh& m, const Wedges& W, int w, const LocalFit& fit, const FitOptions& opt) {
   if (!fit.c.allFinite()) return false;
   for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
     const int f = W.wedge_faces[i];
     const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
-    const double limit = max_offset * std::sqrt((b - a).cross(c - a).norm());
+    const double limit = fit_offset_limit(a, b, c, opt);
     for (int j = 0; j <= 4; ++j)
       for (int k = 0; j + k <= 4; ++k) {
         const Eigen::Vector3d x = a + (j / 4.0) * (b - a) + (k / 4.0) * (c - a);
@@ -157,7 +157,7 @@ CoarseFit fit_coarse_wedge(const Mesh& fine, const Mesh& coarse, const Topology&
   for (int d = p; d >= 1; --d) {
     out.fit = solve_height_fit(o, n, h, P, wt, d, opt.fit);
     out.fit.requested_degree = p;
-    if (coarse_fit_sane(coarse, Wc, w, out.fit, opt.fit.max_offset)) return out;
+    if (coarse_fit_sane(coarse, Wc, w, out.fit, opt.fit)) return out;
   }
   out.fit.identity = true;  // nothing sane: the corner keeps the straight triangles
   out.fit.degree = 0;

@@ -35,14 +35,14 @@ int monomial_index(int j, int k) {
   return (d - 1) * (d + 2) / 2 + k;
 }
 
-/// The fit moves no point of the wedge's faces by more than opt.max_offset x sqrt(2 area) of
-/// that face (fit_wedge's sanity bound: beyond it the fit extrapolates).
+/// The fit moves no point of the wedge's faces by more than fit_offset_limit (fit_wedge's
+/// sanity bound: beyond it the fit extrapolates).
 bool moves_little(const Mesh& mesh, const Wedges& W, int w, const LocalFit& fit, const FitOptions& opt) {
   if (!fit.c.allFinite()) return false;
   for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
     const int f = W.wedge_faces[i];
     const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
-    const double limit = opt.max_offset * std::sqrt((b - a).cross(c - a).norm());
+    const double limit = fit_offset_limit(a, b, c, opt);
     for (int j = 0; j <= 4; ++j)
       for (int k = 0; j + k <= 4; ++k) {
         const Eigen::Vector3d x = a + (j / 4.0) * (b - a) + (k / 4.0) * (c - a);

@@ -564,6 +564,14 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
   return F;
 }
 
+double fit_offset_limit(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                        const FitOptions& opt) {
+  const double l0 = (b - a).norm(), l1 = (c - b).norm(), l2 = (a - c).norm();
+  const double longest = std::max({l0, l1, l2}), shortest = std::min({l0, l1, l2});
+  const double floor = shortest < opt.needle_short_edge * longest ? opt.min_offset_edge * longest : 0;
+  return opt.max_offset * std::max(std::sqrt((b - a).cross(c - a).norm()), floor);
+}
+
 namespace {
 
 /// The reference surface a fit was solved over (to refit over the same one).
@@ -575,8 +583,8 @@ FitReference reference_of(const LocalFit& fit) {
   return r;
 }
 
-/// The fit moves no point of its wedge's faces further than opt.max_offset x sqrt(2 area)
-/// of that face (about half an edge): beyond that it extrapolates, not approximates.
+/// The fit moves no point of its wedge's faces further than fit_offset_limit (about half an
+/// edge): beyond that it extrapolates, not approximates.
 /// The move of x is about |height(u, v) - z| at x's frame coordinates (u, v, z), taken affine
 /// over a face (exact over the tangent plane; off by O(k h^2) over a reference torus, well
 /// inside the limit).
@@ -586,7 +594,7 @@ bool fit_is_sane(const Mesh& mesh, const Wedges& W, int w, const LocalFit& fit, 
   for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
     const int f = W.wedge_faces[i];
     const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
-    const double limit = opt.max_offset * std::sqrt((b - a).cross(c - a).norm());
+    const double limit = fit_offset_limit(a, b, c, opt);
     const Eigen::Vector3d ua = fit.coords(a), ub = fit.coords(b) - ua, uc = fit.coords(c) - ua;
     for (int j = 0; j <= 4; ++j)
       for (int k = 0; j + k <= 4; ++k) {

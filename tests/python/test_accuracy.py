@@ -6,7 +6,8 @@ Gmsh from exact OCC CAD and written as binary STL. hocurve curves them to P4; be
 samples every element's Lagrange map (Gmsh basis functions) and measures the exact distance.
 
 Also an abruptly graded sphere (h = 0.2, and 0.025 for x > 0.3): its long edges keep their fits; and
-a marching-tetrahedra sphere (caps and slivers): no false feature or planar patch, P4 >= 1000x below linear.
+marching-tetrahedra spheres (caps and slivers): no false feature, cone point or planar patch, P4 >= 1000x
+below linear; a marching-tetrahedra torus: no fit lowered to the straight triangles by its needles.
 
 Asserts: output reads back with Gmsh as a single block of type-23 triangles, one per input triangle,
 watertight/conforming (every edge's node set shared by exactly two elements), no element with a
@@ -131,6 +132,27 @@ def check_isosurface(hoc, work):
                   name, m["max"], lin["max"], lin["max"] / max(m["max"], 1e-300)))
 
 
+def check_isosurface_needles(hoc, work):
+    """A marching-tetrahedra torus (grid 32, 15,716 triangles) has needles whose corners nearly
+    meet (a 2.7e-6 edge beside two of 0.14): the fits' sanity bound, sqrt(2 area) of each face,
+    lowered every fit at their corners to the straight triangles (6 fits). The bound of such a
+    needle is now its long edge's: no fit falls to degree 0."""
+    f, half = isosurface.SHAPES["torus"]
+    V, T = isosurface.marching_tetrahedra(f, half, 32)
+    stl = os.path.join(work, "torus_mt32.stl")
+    isosurface.write_stl(stl, isosurface.onto_surface(f, V), T, f)
+    out = os.path.join(work, "torus_mt32_p4.msh")
+    r = accuracy.run_hocurve(hoc, stl, out, 4, out + ".json", timeout=300)
+    check(r["rc"] == 0, "iso-surface torus grid 32: hocurve curve --order 4 exits 0 (rc %s)" % r["rc"])
+    if r["rc"] != 0:
+        return
+    c = r["stats"]["curving"]
+    hist = c["fits"]["degree_histogram"]
+    check(int(hist.get("0", 0)) == 0 and c["validity"]["invalid_after"] == 0,
+          "iso-surface torus grid 32: %s fits of degree 0 (straight), %d invalid after repair" % (
+              hist.get("0", 0), c["validity"]["invalid_after"]))
+
+
 def main(argv):
     build = argv[1] if len(argv) > 1 else os.environ.get("HOCURVE_BUILD_DIR", "build")
     hoc = os.path.join(build, "hocurve")
@@ -141,6 +163,7 @@ def main(argv):
     check_harness(work)
     check_graded(hoc, work)
     check_isosurface(hoc, work)
+    check_isosurface_needles(hoc, work)
     # (shape, size, strict): strict = the brief's targets (>= 1000x below linear, <= 10x Gmsh's
     # exact-CAD P4); the coarse torus (h = r/2) only has to beat the linear input by 4x.
     cases = [("sphere", 0.1, True), ("torus", 0.2, False)]
