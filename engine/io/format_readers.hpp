@@ -31,6 +31,6 @@ void split_polygon(const Eigen::MatrixXd& V, const std::vector<long long>& poly,
 std::string polygons_warning(const std::string& name, long long polygons);
 
 /// Throws InputError naming the first vertex with a NaN/Inf coordinate.
-void check_finite_vertices(const Mesh& mesh, const std::string& name);
+void check_finite_vertices(const Mesh& mesh, const std::string& name, bool from_one = false);
 
 }  // namespace hocurve::io_detail

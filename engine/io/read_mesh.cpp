@@ -4,6 +4,7 @@
 #include "engine/io/format_readers.hpp"
 #include "engine/io/weld_vertices.hpp"
 
+#include <sys/stat.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -197,12 +198,12 @@ std::string detect_format(std::string_view bytes, const std::string& name) {
 }
 
 namespace io_detail {
-void check_finite_vertices(const Mesh& mesh, const std::string& name) {
+void check_finite_vertices(const Mesh& mesh, const std::string& name, bool from_one) {
   static constexpr const char* axis[] = {"x", "y", "z"};
   for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(mesh.V(v, d)))
-        throw InputError(name, "vertex " + std::to_string(v) + " has " +
+        throw InputError(name, "vertex " + std::to_string(v + from_one) + (from_one ? " (counting from 1)" : "") + " has " +
                                    (std::isnan(mesh.V(v, d)) ? "a NaN" : "an infinite") + " " + axis[d] +
                                    " coordinate");
 }
@@ -257,13 +258,20 @@ ReadResult read_mesh_bytes(std::string_view bytes, const std::string& name, cons
   else if (fmt == "off") io_detail::read_off(bytes, name, out);
   else io_detail::read_msh(bytes, name, out);
   if (out.mesh.F.rows() == 0) throw InputError(name, "no triangles in the file");
-  io_detail::check_finite_vertices(out.mesh, name);
+  io_detail::check_finite_vertices(out.mesh, name, fmt == "obj");
   if (opt.weld && fmt != "stl-binary" && fmt != "stl-ascii") weld_repeated_positions(out, name);
   out.report.facets_read = out.mesh.F.rows();
   return out;
 }
 
 ReadResult read_mesh_file(const std::string& path, const ReadOptions& opt) {
+  // A directory opens as a file of unbounded size, a device (/dev/zero) never ends: refused by
+  // kind. Pipes and FIFOs (`<(gunzip -c m.stl.gz)`) are read to their end.
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0) {
+    if (S_ISDIR(st.st_mode)) throw InputError(path, "is a directory, not a mesh file");
+    if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) throw InputError(path, "is a device, not a mesh file");
+  }
   std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), std::fclose);
   if (!f) throw InputError(path, std::string("cannot open file: ") + std::strerror(errno));
   std::string data;

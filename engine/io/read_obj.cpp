@@ -56,6 +56,55 @@ void reread_vertices(std::string_view b, std::vector<tinyobj::real_t>& xyz) {
   if (out.size() == xyz.size()) std::copy(out.begin(), out.end(), xyz.begin());
 }
 
+bool blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
+
+/// Calls f(line number, first non-blank position, end of line) for each line of b.
+template <class F>
+void for_each_line(std::string_view b, F f) {
+  long long line = 0;
+  for (std::size_t p = 0; p < b.size();) {
+    std::size_t e = b.find('\n', p);
+    if (e == std::string_view::npos) e = b.size();
+    std::size_t q = p;
+    while (q < e && blank(b[q])) ++q;
+    f(++line, q, e);
+    p = e + 1;
+  }
+}
+
+/// tinyobjloader reads face indices into int without overflow checks (2^32 + 3 became vertex 3)
+/// and names a bad one without its line. Checks every "f" line's vertex indices first: nonzero,
+/// at most the file's vertex count, negatives at most the vertices read so far.
+void check_face_indices(std::string_view b, const std::string& name) {
+  long long total = 0, vertices = 0;
+  auto is = [&](std::size_t q, std::size_t e, char c) { return q + 1 < e && b[q] == c && blank(b[q + 1]); };
+  for_each_line(b, [&](long long, std::size_t q, std::size_t e) { total += is(q, e, 'v'); });
+  for_each_line(b, [&](long long line, std::size_t q, std::size_t e) {
+    vertices += is(q, e, 'v');
+    if (is(q, e, 'f')) {
+      for (q += 2;;) {
+        while (q < e && blank(b[q])) ++q;
+        if (q >= e || b[q] == '#') break;
+        std::size_t t = q;
+        while (t < e && !blank(b[t]) && b[t] != '/') ++t;
+        const std::string_view tok = b.substr(q, t - q);
+        long long v = 0;
+        auto [r, ec] = std::from_chars(tok.data(), tok.data() + tok.size(), v);
+        const bool whole = ec == std::errc() && r == tok.data() + tok.size();
+        if (!whole || v == 0 || v > total || v < -vertices)
+          throw InputError(name + ": line " + std::to_string(line),
+                           "face vertex index " + std::string(tok.substr(0, 24)) +
+                               (whole || ec == std::errc::result_out_of_range
+                                    ? " out of range (the file has " + std::to_string(total) +
+                                          " vertices; OBJ counts from 1, negatives back from the last one read)"
+                                    : " is not an integer"));
+        while (t < e && !blank(b[t])) ++t;
+        q = t;
+      }
+    }
+  });
+}
+
 std::string first_line(const std::string& s) {
   std::string t = s.substr(0, s.find('\n'));
   return t.empty() ? "parse error" : t;
@@ -71,6 +120,7 @@ void read_obj(std::string_view bytes, const std::string& name, ReadResult& out) 
   std::vector<tinyobj::material_t> materials;
   std::string warn, err;
   NoMaterials no_mtl;
+  check_face_indices(bytes, name);
   // triangulate=false: we fan-split polygons ourselves, so the rule is ours and documented.
   const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &in, &no_mtl, false, false);
   if (!ok) throw InputError(name, "OBJ: " + first_line(err));

@@ -145,7 +145,7 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
     Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
     for (int f = 0; f < m.num_faces(); ++f)  // the vertices faces use: unused ones are dropped below
       for (int j = 0; j < 3; ++j) lo = lo.cwiseMin(m.V.row(m.F(f, j))), hi = hi.cwiseMax(m.V.row(m.F(f, j)));
-    const double diag = (hi - lo).norm();
+    const double diag = (hi - lo).stableNorm();  // 1e200 coordinates: a finite diagonal, not inf
     if (diag > kMaxDiagonal || (diag > 0 && diag < kMinDiagonal)) {
       char buf[160];
       std::snprintf(buf, sizeof buf, "the bounding box diagonal is %.3g, outside the %g to %g hocurve works in; rescale the mesh (change its units)",

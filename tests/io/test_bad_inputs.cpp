@@ -43,6 +43,9 @@ TEST_CASE("empty, blank and garbage input") {
   refused(gzip(garbage).substr(0, 100), "cut.gz", {"gzip"});
   refused("solid x\nendsolid x\n", "nofacets.stl", {"no triangles"});
   CHECK_THROWS_AS(read_mesh_file(tmp_path("does_not_exist.stl")), InputError);
+  // A directory read as a file of unbounded size (out of memory, exit 5); a device never ends.
+  CHECK_THROWS_WITH_AS(read_mesh_file("."), doctest::Contains("is a directory"), InputError);
+  CHECK_THROWS_WITH_AS(read_mesh_file("/dev/zero"), doctest::Contains("is a device"), InputError);
 }
 
 TEST_CASE("truncated binary STL names the incomplete facet") {
@@ -58,7 +61,7 @@ TEST_CASE("NaN and infinite coordinates are located") {
   refused(stl_ascii(m), "n.stl", {"line 5", "facet 0: vertex 1 has a NaN"});
   refused(off_text(m), "n.off", {"vertex 2 has a NaN"});
   m.V(2, 1) = std::numeric_limits<double>::infinity();
-  refused(obj_text(m), "n.obj", {"vertex 2 has an infinite y"});
+  refused(obj_text(m), "n.obj", {"vertex 3 (counting from 1) has an infinite y"});
   Mesh direct = octahedron();
   direct.V(4, 2) = std::numeric_limits<double>::quiet_NaN();
   CHECK_THROWS_WITH_AS(validate_mesh(direct), "vertex 4: has a NaN z coordinate", InputError);
@@ -78,7 +81,13 @@ TEST_CASE("meshes too large or too small for double-precision geometry are refus
 }
 
 TEST_CASE("out-of-range indices are located") {
-  refused("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 99\n", "i.obj", {"face 1", "99", "out of range"});
+  refused("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 99\n", "i.obj", {"line 5", "99", "out of range"});
+  // 2^32 + 3 wrapped to vertex 3 inside tinyobjloader; a 20-digit index too.
+  refused("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4294967299\n", "w.obj", {"line 4", "4294967299", "out of range"});
+  refused("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999\n", "w.obj", {"line 4", "out of range"});
+  refused("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -99999999999999999999\n", "w.obj", {"line 4", "out of range"});
+  refused("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n", "w.obj", {"line 4", "-4", "out of range"});
+  refused("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "w.obj", {"line 4", "x", "not an integer"});
   refused("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", "i.off", {"line 6", "face 0", "index 3 out of range"});
   refused("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
           "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 -1\n",
