@@ -135,13 +135,15 @@ nlohmann::json lift_json(const LiftResult& l) {
 }
 
 nlohmann::json redecimation_json(const RedecimateResult& r, const RedecimateOptions& o) {
+  // Without rounds the deviations may never have been measured: null, not 0.
+  auto measured = [&](double d) { return r.rounds == 0 && d == 0 ? nlohmann::json(nullptr) : nlohmann::json(d); };
   return {{"rounds_asked", o.rounds},
           {"rounds", r.rounds},
           {"kept_round", r.kept_round},
           {"straying_elements", r.straying},
           {"message", r.message},
-          {"deviation_first_relative", r.deviation_first},
-          {"deviation_kept_relative", r.deviation_kept},
+          {"deviation_first_relative", measured(r.deviation_first)},
+          {"deviation_kept_relative", measured(r.deviation_kept)},
           {"seconds", {{"decimate", r.seconds_decimate}, {"lift", r.seconds_lift}, {"measure", r.seconds_measure}}}};
 }
 

@@ -43,6 +43,13 @@ RedecimateResult redecimate_where_far(const Mesh& fine, const DecimateOptions& d
     R.message = "nothing was decimated: no re-decimation";
     return R;
   }
+  const long long faces = dec.coarse.num_faces();
+  if (opt.max_missed_target > 0 && !dec.reached_target && faces > opt.max_missed_target * dec.target_faces) {
+    R.message = "the decimation stopped at " + std::to_string(faces) + " faces, over " +
+                std::to_string(static_cast<long long>(opt.max_missed_target)) + "x its target " +
+                std::to_string(dec.target_faces) + ": no re-decimation";
+    return R;
+  }
   // Straying elements, and whether they are few: first on a rough sample (the share barely depends
   // on it, and on large smooth meshes the full measure costs more than the lifting).
   auto count_straying = [&](const std::vector<double>& dev) {

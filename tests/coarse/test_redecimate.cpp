@@ -141,3 +141,20 @@ TEST_CASE("an even error (smooth torus): no round runs") {
   CHECK(R.rounds == 0);
   CHECK(R.deviation_kept == R.deviation_first);
 }
+
+TEST_CASE("a decimation stopped far above its target (features bind it): no round runs") {
+  // A cube's corners and edges bind it at 12 faces at best; asked for 1, re-weighting the
+  // quadrics cannot move it (noisy scans: six lifting rounds of 20k faces, the first kept).
+  const Mesh fine = cube(8);
+  DecimateOptions dopt;
+  dopt.target_faces = 1;
+  DecimateResult D = decimate(fine, dopt);
+  const LiftOptions lopt = lift_options(dopt);
+  const DenseSurface S = build_dense_surface(fine, dense_surface_options(lopt));
+  const RedecimateResult R = redecimate_where_far(fine, dopt, D, lopt, S);
+  MESSAGE(R.message);
+  CHECK_FALSE(D.reached_target);
+  CHECK(D.coarse.num_faces() > 10);
+  CHECK(R.rounds == 0);
+  CHECK(R.message.find("over 10x its target") != std::string::npos);
+}
