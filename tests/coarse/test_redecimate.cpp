@@ -128,15 +128,21 @@ TEST_CASE("spot 3% with a tolerance and a face budget: the face count grows unti
   CHECK(one.kept_round == R.kept_round);
 }
 
-TEST_CASE("an even error (smooth torus): no round runs") {
-  const Mesh fine = torus(125, 60, 1.0, 0.4);
+/// decimate(fine) to target faces into D, then redecimate_where_far with the default options.
+static RedecimateResult decimate_and_redecimate(const Mesh& fine, int target, DecimateResult& D) {
   DecimateOptions dopt;
-  dopt.target_faces = 640;
-  DecimateResult D = decimate(fine, dopt);
+  dopt.target_faces = target;
+  D = decimate(fine, dopt);
   const LiftOptions lopt = lift_options(dopt);
   const DenseSurface S = build_dense_surface(fine, dense_surface_options(lopt));
-  const RedecimateResult R = redecimate_where_far(fine, dopt, D, lopt, S);
+  RedecimateResult R = redecimate_where_far(fine, dopt, D, lopt, S);
   MESSAGE(R.message);
+  return R;
+}
+
+TEST_CASE("an even error (smooth torus): no round runs") {
+  DecimateResult D;
+  const RedecimateResult R = decimate_and_redecimate(torus(125, 60, 1.0, 0.4), 640, D);
   CHECK(R.straying > RedecimateOptions{}.max_straying_share * D.coarse.num_faces());
   CHECK(R.rounds == 0);
   CHECK(R.deviation_kept == R.deviation_first);
@@ -145,14 +151,8 @@ TEST_CASE("an even error (smooth torus): no round runs") {
 TEST_CASE("a decimation stopped far above its target (features bind it): no round runs") {
   // A cube's corners and edges bind it at 12 faces at best; asked for 1, re-weighting the
   // quadrics cannot move it (noisy scans: six lifting rounds of 20k faces, the first kept).
-  const Mesh fine = cube(8);
-  DecimateOptions dopt;
-  dopt.target_faces = 1;
-  DecimateResult D = decimate(fine, dopt);
-  const LiftOptions lopt = lift_options(dopt);
-  const DenseSurface S = build_dense_surface(fine, dense_surface_options(lopt));
-  const RedecimateResult R = redecimate_where_far(fine, dopt, D, lopt, S);
-  MESSAGE(R.message);
+  DecimateResult D;
+  const RedecimateResult R = decimate_and_redecimate(cube(8), 1, D);
   CHECK_FALSE(D.reached_target);
   CHECK(D.coarse.num_faces() > 10);
   CHECK(R.rounds == 0);
