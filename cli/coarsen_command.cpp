@@ -39,6 +39,7 @@ const std::vector<OptionSpec> kCoarsenOptions = {
     {"tolerance", true, "then grow the face count and split edges while the curved mesh is further than F x diagonal from the input (default 0: off)"},
     {"max-faces", true, "with --tolerance: growing and splitting stop at this many coarse triangles (default: the input's count); a decimation that could not get below it is kept as it is"},
     {"long-edge-ratio", true, "dense edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
+    {"weld-tolerance", true, "merge vertices closer than this x the bounding-box diagonal (default 1e-9; 0: only exactly equal ones)"},
     {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0.01; 0: only invalid ones; e.g. 0.1)"},
     {"progress", false, "print progress as JSON lines on stdout"},
     {"help", false, "show this help", 'h'},
@@ -211,7 +212,7 @@ int run_coarsen(int argc, char** argv) {
   };
 
   const double t0 = now_seconds();
-  LoadedInput in = load_input(input, progress);
+  LoadedInput in = load_input(input, progress, read_options(a));
   const double t1 = now_seconds();
   progress("decimate", 0.1);
   // Non-manifold vertices (parts touching at a point): one pinned copy per fan of faces.

@@ -22,11 +22,17 @@ double now_seconds() {
   return duration<double>(steady_clock::now().time_since_epoch()).count();
 }
 
-LoadedInput load_input(const std::string& path, const Progress& progress) {
+ReadOptions read_options(const Args& a) {
+  ReadOptions r;
+  r.weld_tolerance = a.get_double("weld-tolerance", r.weld_tolerance, 0.0, 0.01);
+  return r;
+}
+
+LoadedInput load_input(const std::string& path, const Progress& progress, const ReadOptions& read) {
   LoadedInput in;
   progress("read", 0.0);
   double t0 = now_seconds();
-  ReadResult r = read_mesh_file(path);
+  ReadResult r = read_mesh_file(path, read);
   in.mesh = std::move(r.mesh);
   in.read = std::move(r.report);
   double t1 = now_seconds();

@@ -3,6 +3,7 @@
 #include "engine/core/mesh.hpp"
 #include "engine/io/read_mesh.hpp"
 #include "engine/io/validate_mesh.hpp"
+#include "cli/args.hpp"
 
 #include <nlohmann/json.hpp>
 #include <string>
@@ -24,7 +25,10 @@ struct LoadedInput {
 };
 
 /// Reads and validates a mesh file; throws InputError with file and location on refusal.
-LoadedInput load_input(const std::string& path, const Progress& progress);
+/// The reader's options from the command line (--weld-tolerance).
+ReadOptions read_options(const Args& a);
+
+LoadedInput load_input(const std::string& path, const Progress& progress, const ReadOptions& read = {});
 
 /// The input part of the stats JSON (format, counts, repairs, warnings, timings).
 nlohmann::json input_json(const std::string& path, const LoadedInput& in);

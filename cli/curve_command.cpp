@@ -30,6 +30,7 @@ const std::vector<OptionSpec> kCurveOptions = {
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
     {"tangent-junctions", true, "on (default: smooth borders where the curvature jumps, as a fillet's, are feature curves) | off"},
     {"long-edge-ratio", true, "edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
+    {"weld-tolerance", true, "merge vertices closer than this x the bounding-box diagonal (default 1e-9; 0: only exactly equal ones)"},
     {"support", true, "auto (default: when the triangulation is non-uniform) | on | off"},
     {"seed", true, "seed of the random support samples (default 1)"},
     {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0.01; 0: only invalid ones; e.g. 0.1)"},
@@ -84,7 +85,7 @@ int run_curve(int argc, char** argv) {
   opt.progress = [&](const std::string& stage, double f) { progress(stage, 0.1 + 0.8 * f); };
 
   const double t0 = now_seconds();
-  LoadedInput in = load_input(input, progress);
+  LoadedInput in = load_input(input, progress, read_options(a));
   const double t1 = now_seconds();
   CurveResult res = curve_mesh(in.mesh, opt);
   const double t2 = now_seconds();

@@ -16,6 +16,7 @@ namespace {
 const std::vector<OptionSpec> kInfoOptions = {
     {"json", false, "print JSON instead of text"},
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
+    {"weld-tolerance", true, "merge vertices closer than this x the bounding-box diagonal (default 1e-9; 0: only exactly equal ones)"},
     {"help", false, "show this help", 'h'},
 };
 
@@ -36,7 +37,7 @@ int run_info(int argc, char** argv) {
   }
   if (a.positional.size() != 1) throw UsageError("info needs exactly one INPUT file (see --help)");
   const std::string input = a.positional[0];
-  LoadedInput in = load_input(input, Progress{});
+  LoadedInput in = load_input(input, Progress{}, read_options(a));
   const Mesh& m = in.mesh;
   Topology T = build_topology(m.F, m.num_vertices());
   FeatureOptions fo;

@@ -82,7 +82,7 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
   static const std::vector<std::string> known = {"mode",          "order",     "nodes",         "format",
                                                  "binary",        "faces",     "ratio",         "max_deviation",
                                                  "tolerance",     "max_faces", "feature_angle", "long_edge_ratio",
-                                                 "min_jacobian",  "redecimate", "tangent_junctions"};
+                                                 "min_jacobian",  "redecimate", "tangent_junctions", "weld_tolerance"};
   Errors err;
   for (auto& [k, v] : raw.items())
     if (std::find(known.begin(), known.end(), k) == known.end()) {
@@ -125,6 +125,7 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
   number("feature_angle", [](double x) { return x >= 0 && x <= 180; }, "a number of degrees in [0, 180]");
   number("long_edge_ratio", [](double x) { return x >= 0 && x <= 1e9; }, "a number >= 0 (0: off)");
   number("min_jacobian", [](double x) { return x >= 0 && x <= 0.9; }, "a number in [0, 0.9] (0: off)");
+  number("weld_tolerance", [](double x) { return x >= 0 && x <= 0.01; }, "a number in [0, 0.01] (0: exact only)");
 
   if (mode == "coarsen") {
     for (const char* k : {"nodes", "format", "binary", "tangent_junctions"})
@@ -202,6 +203,7 @@ std::vector<std::string> worker_argv(const std::string& program, const nlohmann:
   if (o.contains("feature_angle")) a.insert(a.end(), {"--feature-angle", number("feature_angle")});
   if (o.contains("long_edge_ratio")) a.insert(a.end(), {"--long-edge-ratio", number("long_edge_ratio")});
   if (o.contains("min_jacobian")) a.insert(a.end(), {"--min-jacobian", number("min_jacobian")});
+  if (o.contains("weld_tolerance")) a.insert(a.end(), {"--weld-tolerance", number("weld_tolerance")});
   a.insert(a.end(), {"--stats", stats, "--progress"});
   return a;
 }

@@ -232,6 +232,7 @@ def main(argv=None):
     s.add_argument("--feature-angle", type=float, dest="feature_angle")
     s.add_argument("--long-edge-ratio", type=float, dest="long_edge_ratio")
     s.add_argument("--min-jacobian", type=float, dest="min_jacobian")
+    s.add_argument("--weld-tolerance", type=float, dest="weld_tolerance")
     s.add_argument("--tangent-junctions", choices=("on", "off"), dest="tangent_junctions")
     s.add_argument("--idempotency-key")
     s.add_argument("--wait", action="store_true", help="wait with a progress bar")
@@ -257,7 +258,7 @@ def main(argv=None):
         if args.cmd == "submit":
             opts = {k: getattr(args, k) for k in ("mode", "order", "nodes", "format", "faces", "ratio", "max_deviation",
                                                   "redecimate", "tolerance", "max_faces", "feature_angle", "long_edge_ratio",
-                                                  "min_jacobian")
+                                                  "min_jacobian", "weld_tolerance")
                     if getattr(args, k) is not None}
             if args.binary:
                 opts["binary"] = True

@@ -235,6 +235,32 @@ void weld_repeated_positions(ReadResult& out, const std::string& name) {
                                 " vertices repeat another vertex's exact position and were merged with it");
 }
 
+/// Merges vertices within rel x the bounding-box diagonal of each other (weld_within), keeping the
+/// lowest-numbered one's position.
+void weld_near_positions(ReadResult& out, const std::string& name, double rel) {
+  Mesh& m = out.mesh;
+  const Eigen::Index n = m.V.rows();
+  if (n == 0 || (m.F.size() && (m.F.minCoeff() < 0 || m.F.maxCoeff() >= n))) return;
+  const double tol = rel * (m.V.colwise().maxCoeff() - m.V.colwise().minCoeff()).stableNorm();
+  const std::vector<int> root = weld_within(m.V, tol);
+  std::vector<int> index(static_cast<std::size_t>(n), -1);
+  Eigen::Index nu = 0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (root[static_cast<std::size_t>(i)] == i) index[static_cast<std::size_t>(i)] = static_cast<int>(nu++);
+  if (nu == n) return;
+  Eigen::MatrixXd V(nu, 3);
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (root[static_cast<std::size_t>(i)] == i) V.row(index[static_cast<std::size_t>(i)]) = m.V.row(i);
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    for (int j = 0; j < 3; ++j) m.F(f, j) = index[static_cast<std::size_t>(root[static_cast<std::size_t>(m.F(f, j))])];
+  m.V = std::move(V);
+  out.report.welded_vertices += n - nu;
+  char buf[160];
+  std::snprintf(buf, sizeof buf, " vertices lie within %.3g (%g of the bounding-box diagonal) of another and were merged with it",
+                tol, rel);
+  out.report.warnings.push_back(name + ": " + std::to_string(n - nu) + buf);
+}
+
 }  // namespace
 
 ReadResult read_mesh_bytes(std::string_view bytes, const std::string& name, const ReadOptions& opt) {
@@ -260,6 +286,7 @@ ReadResult read_mesh_bytes(std::string_view bytes, const std::string& name, cons
   if (out.mesh.F.rows() == 0) throw InputError(name, "no triangles in the file");
   io_detail::check_finite_vertices(out.mesh, name, fmt == "obj");
   if (opt.weld && fmt != "stl-binary" && fmt != "stl-ascii") weld_repeated_positions(out, name);
+  if (opt.weld && opt.weld_tolerance > 0) weld_near_positions(out, name, opt.weld_tolerance);
   out.report.facets_read = out.mesh.F.rows();
   return out;
 }

@@ -12,13 +12,19 @@ struct ReadOptions {
   /// Merge exactly repeated vertex positions: STL stores each facet's own points; indexed formats
   /// (OBJ, PLY, OFF, .msh) may repeat positions at per-face exports or assembled parts' seams.
   bool weld = true;
+  /// Then merge vertices closer than this x the bounding-box diagonal (0: none): CAD exports whose
+  /// faces were tessellated apart repeat their shared border points up to the last digits, and
+  /// unmerged every such seam is an open boundary (a soup of such faces curved nothing). 1e-9 is far
+  /// below float32 STL resolution (6e-8) and any modelled detail; marching-tetrahedra vertices 3e-6
+  /// apart stay apart.
+  double weld_tolerance = 1e-9;
 };
 
 struct ReadReport {
   std::string format;            ///< "stl-ascii", "stl-binary", "obj", "ply-ascii", "ply-binary", "off", "msh2", "msh4"
   bool gzip = false;             ///< the input was gzip-compressed
   long long facets_read = 0;     ///< triangles read (after fan-splitting polygons)
-  long long welded_vertices = 0; ///< repeated positions merged
+  long long welded_vertices = 0; ///< repeated positions merged (exactly or within weld_tolerance)
   std::vector<std::string> warnings;  ///< non-fatal problems, each naming where
 };
 

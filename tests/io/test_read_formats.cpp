@@ -104,6 +104,56 @@ TEST_CASE("Indexed formats that repeat positions are welded too (per-face export
   CHECK(read_mesh_bytes(obj_text(per_face), "p.obj", no_weld).mesh.num_vertices() == 24);
 }
 
+TEST_CASE("near-duplicate vertices (faces tessellated apart) are welded within 1e-9 of the diagonal") {
+  // Every face with its own corners, each copy moved by up to 1e-12 (diagonal 2): a soup that
+  // came out flat; moved by 1e-6 it stays a soup unless --weld-tolerance asks for more.
+  const Mesh m = octahedron();
+  auto soup = [&](double jitter) {
+    Mesh s;
+    s.V.resize(3 * m.num_faces(), 3);
+    s.F.resize(m.num_faces(), 3);
+    for (int f = 0; f < m.num_faces(); ++f)
+      for (int j = 0; j < 3; ++j) {
+        const double d = jitter * (1 + 3 * f + j) / 24.0;  // each copy its own: no exact repeat
+        s.V.row(3 * f + j) = m.V.row(m.F(f, j)) + Eigen::RowVector3d(d, -d, 0.5 * d);
+        s.F(f, j) = 3 * f + j;
+      }
+    return s;
+  };
+  for (const char* name : {"s.obj", "s.stl"}) {
+    CAPTURE(name);
+    auto text = [&](const Mesh& s) { return std::string(name) == "s.obj" ? obj_text(s) : stl_ascii(s); };
+    const ReadResult near = read_mesh_bytes(text(soup(1e-12)), name);
+    CHECK(near.mesh.num_vertices() == 6);
+    CHECK(near.report.welded_vertices == 18);
+    CHECK(near.report.warnings.back().find("of the bounding-box diagonal) of another") != std::string::npos);
+    CHECK(read_mesh_bytes(text(soup(1e-6)), name).mesh.num_vertices() == 24);
+    ReadOptions wide;
+    wide.weld_tolerance = 1e-5;
+    CHECK(read_mesh_bytes(text(soup(1e-6)), name, wide).mesh.num_vertices() == 6);
+    ReadOptions exact;
+    exact.weld_tolerance = 0;
+    CHECK(read_mesh_bytes(text(soup(1e-12)), name, exact).mesh.num_vertices() == 24);
+  }
+}
+
+TEST_CASE("weld_within: chains of close points join the lowest-numbered one") {
+  Eigen::MatrixXd V(5, 3);
+  V << 0, 0, 0,  //
+      1, 0, 0,   //
+      1e-10, 0, 0, 2e-10, 0, 0, 1 + 5e-11, 0, 0;
+  CHECK(weld_within(V, 1.5e-10) == std::vector<int>{0, 1, 0, 0, 1});
+  CHECK(weld_within(V, 0) == std::vector<int>{0, 1, 2, 3, 4});
+  // Points on a plane perpendicular to no axis and on the axes' planes: only true neighbours join.
+  Eigen::MatrixXd G(2000, 3);
+  for (int i = 0; i < 1000; ++i) {
+    G.row(i) << i * 1e-3, 0, 0;
+    G.row(1000 + i) << i * 1e-3, 0, (i % 2 ? 1e-12 : 1.0);
+  }
+  const std::vector<int> w = weld_within(G, 1e-9);
+  for (int i = 0; i < 2000; ++i) REQUIRE(w[i] == (i >= 1000 && i % 2 ? i - 1000 : i));
+}
+
 TEST_CASE("ASCII STL with two solids gives two surface entities") {
   const Mesh m = octahedron();
   const std::string text = stl_ascii(m, "one") + stl_ascii(m, "two");
