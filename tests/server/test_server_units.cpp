@@ -128,6 +128,12 @@ TEST_CASE("worker command line follows the CLI contract") {
                                       "--min-jacobian", "0.10000000000000001", "--stats", "s", "--progress"});
   CHECK_THROWS_AS(normalise_options({{"min_jacobian", 1}}), ApiError);
   CHECK_THROWS_AS(normalise_options({{"min_jacobian", -0.1}}), ApiError);
+  // The reader's weld tolerance, in both modes.
+  a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"faces", 50}, {"weld_tolerance", 0}}), "i", "o", "s", 1);
+  CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "4", "--faces", "50",
+                                      "--weld-tolerance", "0", "--stats", "s", "--progress"});
+  CHECK_THROWS_AS(normalise_options({{"weld_tolerance", 0.5}}), ApiError);
+  CHECK_THROWS_AS(normalise_options({{"weld_tolerance", -1e-9}}), ApiError);
   // Re-decimation rounds: coarsen only, 0..100.
   a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"ratio", 0.05}, {"redecimate", "2"}}), "i", "o", "s", 1);
   CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "4", "--ratio", "0.050000000000000003",
