@@ -213,6 +213,7 @@ int run_coarsen(int argc, char** argv) {
 
   const double t0 = now_seconds();
   LoadedInput in = load_input(input, progress, read_options(a));
+  print_input_warnings("coarsen", in);
   const double t1 = now_seconds();
   progress("decimate", 0.1);
   // Non-manifold vertices (parts touching at a point): one pinned copy per fan of faces.

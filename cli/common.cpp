@@ -22,6 +22,11 @@ double now_seconds() {
   return duration<double>(steady_clock::now().time_since_epoch()).count();
 }
 
+void print_input_warnings(const std::string& cmd, const LoadedInput& in) {
+  for (const auto* list : {&in.read.warnings, &in.validation.warnings})
+    for (const std::string& w : *list) std::cerr << "hocurve " << cmd << ": warning: " << w << "\n";
+}
+
 ReadOptions read_options(const Args& a) {
   ReadOptions r;
   r.weld_tolerance = a.get_double("weld-tolerance", r.weld_tolerance, 0.0, 0.01);

@@ -25,6 +25,9 @@ struct LoadedInput {
 };
 
 /// Reads and validates a mesh file; throws InputError with file and location on refusal.
+/// Prints the reader's and validation's warnings on stderr, one line each, prefixed "hocurve CMD: warning: ".
+void print_input_warnings(const std::string& cmd, const LoadedInput& in);
+
 /// The reader's options from the command line (--weld-tolerance).
 ReadOptions read_options(const Args& a);
 

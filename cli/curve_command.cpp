@@ -86,6 +86,7 @@ int run_curve(int argc, char** argv) {
 
   const double t0 = now_seconds();
   LoadedInput in = load_input(input, progress, read_options(a));
+  print_input_warnings("curve", in);
   const double t1 = now_seconds();
   CurveResult res = curve_mesh(in.mesh, opt);
   const double t2 = now_seconds();

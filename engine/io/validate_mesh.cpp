@@ -314,7 +314,15 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
       }
     }
   }
-  if (r.components > 1) warn(std::to_string(r.components) + " connected components");
+  if (r.components > 1) {
+    // Most faces alone: a triangle soup, each face with its own copies of its corners, which the
+    // reader's weld did not merge; nothing curves across a boundary.
+    const bool soup = nf >= 4 && 2LL * r.components > nf;
+    warn(std::to_string(r.components) + " connected components" +
+         (soup ? " (most faces share no edge: a triangle soup whose copies of one vertex differ by more than the "
+                 "weld tolerance? hocurve --weld-tolerance F merges vertices within F x the bounding-box diagonal)"
+               : ""));
+  }
 
   if (opt.fix_orientation) {
     // BFS over manifold edges: flip[g] says whether g must be reversed to agree with the seed.
