@@ -39,9 +39,11 @@ struct PlacementResult {
 /// is computed independently, so the result does not depend on the thread count).
 /// curves / feat may be null: then every edge uses the surface blend. long_edge (may be null):
 /// its faces (LongEdgeResult::face) and unreached edges go on their PN triangles (long_face_point).
+/// planar (may be null): per face, planar_patch_faces (>= 0: in a flat patch); a feature edge
+/// between two flat patches is straight.
 PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W,
                             const std::vector<LocalFit>& fits, const Features* feat,
                             const CurveFitResult* curves, int p, NodeDistribution d,
-                            const LongEdgeResult* long_edge = nullptr);
+                            const LongEdgeResult* long_edge = nullptr, const std::vector<int>* planar = nullptr);
 
 }  // namespace hocurve

@@ -77,9 +77,14 @@ std::vector<int> planar_patch_faces(const Mesh& mesh, const Topology& T, const P
 
 PlanarPatchResult flatten_planar_patches(const Mesh& mesh, const Topology& T, HighOrderMesh& hm,
                                          const PlanarPatchOptions& opt, const std::vector<char>* edge_feature) {
+  if (hm.order < 2) return {};
+  return flatten_planar_patches(mesh, T, hm, planar_patch_faces(mesh, T, opt, edge_feature));
+}
+
+PlanarPatchResult flatten_planar_patches(const Mesh& mesh, const Topology& T, HighOrderMesh& hm,
+                                         const std::vector<int>& anchor) {
   PlanarPatchResult R;
   if (hm.order < 2) return R;
-  const std::vector<int> anchor = planar_patch_faces(mesh, T, opt, edge_feature);
   for (int f = 0; f < mesh.num_faces(); ++f) {
     R.faces += anchor[f] >= 0;
     R.patches += anchor[f] == f;

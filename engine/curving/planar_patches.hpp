@@ -52,4 +52,8 @@ PlanarPatchResult flatten_planar_patches(const Mesh& mesh, const Topology& T, Hi
                                          const PlanarPatchOptions& opt = {},
                                          const std::vector<char>* edge_feature = nullptr);
 
+/// The same with the patches already found (anchor = planar_patch_faces(...)).
+PlanarPatchResult flatten_planar_patches(const Mesh& mesh, const Topology& T, HighOrderMesh& hm,
+                                         const std::vector<int>& anchor);
+
 }  // namespace hocurve

@@ -116,14 +116,15 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
 
     progress("placement", 0.7);
     const LongEdgeResult long_edge = p >= 2 ? long_edges(mesh, T, W, R.fits.fits, opt.long_edges) : LongEdgeResult{};
+    const std::vector<int> planar = planar_patch_faces(mesh, T, opt.planar, &R.features.edge_feature);
     PlacementResult P = place_nodes(mesh, T, W, R.fits.fits, &R.features,
                                     R.curve_fits.fits.empty() ? nullptr : &R.curve_fits, p,
-                                    opt.distribution, p >= 2 ? &long_edge : nullptr);
+                                    opt.distribution, p >= 2 ? &long_edge : nullptr, &planar);
     R.mesh = std::move(P.mesh);
     R.long_edges = long_edge.edges;
     R.long_edges_placed = P.long_edges;
     R.long_faces = long_edge.faces;
-    R.planar = flatten_planar_patches(mesh, T, R.mesh, opt.planar, &R.features.edge_feature);
+    R.planar = flatten_planar_patches(mesh, T, R.mesh, planar);
     R.curve_edges = P.curve_edges;
     R.placement_seconds = P.seconds;
   }

@@ -316,6 +316,49 @@ TEST_CASE("a chamfer one triangle wide under a cylinder: face nodes follow the r
   check_result(m, r6);
 }
 
+TEST_CASE("a slot in a cylinder: the floor's arc one edge long follows the wall, not its chord") {
+  // Unit cylinder, height 1, with a slot 0.3 wide and 0.3 deep across its top; h = 0.5: where the
+  // slot floor meets the wall the arc is a single edge between two corners. Its curve fits hold
+  // its two ends only, so it stayed a chord, 0.011 inside the wall (the CAD screw's slot at d/40:
+  // 2.1e-2); it now lies on the intersection of the wall's and the floor's surface fits.
+  const double w = 0.3, depth = 0.3;
+  Mesh m;
+  {
+    GmshSession gmsh_session;
+    gmsh::model::add("slotted cylinder");
+    const int cyl = gmsh::model::occ::addCylinder(0, 0, 0, 0, 0, 1, 1);
+    const int slot = gmsh::model::occ::addBox(-1.5, -w / 2, 1 - depth, 3, w, 1);
+    gmsh::vectorpair out;
+    std::vector<gmsh::vectorpair> map;
+    gmsh::model::occ::cut({{3, cyl}}, {{3, slot}}, out, map);
+    gmsh::model::occ::synchronize();
+    m = gmsh_surface_mesh(0.5);
+  }
+  CurveOptions o;
+  o.order = 4;
+  const CurveResult r = curve_mesh(m, o);
+  // The arc edges: both ends on the wall (radius 1) at the floor's height.
+  const HighOrderMesh& hm = r.mesh;
+  int arcs = 0;
+  double worst = 0;
+  for (int e = 0; e < hm.E.rows(); ++e) {
+    const Eigen::Vector3d a = hm.V.row(hm.E(e, 0)), b = hm.V.row(hm.E(e, 1));
+    auto on_arc = [&](const Eigen::Vector3d& x) {
+      return std::abs(std::hypot(x[0], x[1]) - 1) < 1e-6 && std::abs(x[2] - (1 - depth)) < 1e-6;
+    };
+    if (!on_arc(a) || !on_arc(b)) continue;
+    ++arcs;
+    for (int k = 0; k < hm.nodes_per_edge(); ++k) {
+      const Eigen::Vector3d q = hm.edge_nodes.row(e * hm.nodes_per_edge() + k);
+      worst = std::max({worst, std::abs(std::hypot(q[0], q[1]) - 1), std::abs(q[2] - (1 - depth))});
+    }
+  }
+  MESSAGE(m.num_faces() << " triangles, " << arcs << " arc edges, their nodes off the wall / floor by at most " << worst);
+  CHECK(arcs >= 2);
+  CHECK(worst < 1e-4);  // the chord: 0.011
+  check_result(m, r);
+}
+
 TEST_CASE("a box with every edge chamfered stays flat to its float32 input") {
   // Chamfer strips two triangles wide and triangular corner faces: flat faces without inside
   // vertices, bounded by features all round. Before: P4 4e-7 off (one face's float32 plane carried
