@@ -211,13 +211,30 @@ void check_finite_vertices(const Mesh& mesh, const std::string& name, bool from_
 
 namespace {
 
+/// Whether every face index of m names a vertex (else validate_mesh names the bad one).
+bool indices_in_range(const Mesh& m) {
+  return !m.F.size() || (m.F.minCoeff() >= 0 && m.F.maxCoeff() < m.V.rows());
+}
+
+/// Replaces the mesh's vertices by V and face indices i by to_new[i]; warns "name: N<what>".
+void merge_vertices(ReadResult& out, Eigen::MatrixXd V, const std::vector<int>& to_new, const std::string& name,
+                    const std::string& what) {
+  Mesh& m = out.mesh;
+  const Eigen::Index merged = m.V.rows() - V.rows();
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    for (int j = 0; j < 3; ++j) m.F(f, j) = to_new[static_cast<std::size_t>(m.F(f, j))];
+  m.V = std::move(V);
+  out.report.welded_vertices += merged;
+  out.report.warnings.push_back(name + ": " + std::to_string(merged) + what);
+}
+
 /// Indexed formats may still repeat a position under several indices (per-face exports, meshes
 /// assembled from parts): those faces would not share their edges, and every such seam would
 /// be curved as two open boundaries. Merges exactly equal positions, as STL reading does.
 void weld_repeated_positions(ReadResult& out, const std::string& name) {
-  Mesh& m = out.mesh;
+  const Mesh& m = out.mesh;
   const Eigen::Index n = m.V.rows();
-  if (m.F.size() && (m.F.minCoeff() < 0 || m.F.maxCoeff() >= n)) return;  // validate_mesh names the bad index
+  if (!indices_in_range(m)) return;
   std::vector<double> xyz(static_cast<std::size_t>(3 * n));
   for (Eigen::Index i = 0; i < n; ++i)
     for (int k = 0; k < 3; ++k) xyz[static_cast<std::size_t>(3 * i + k)] = m.V(i, k);
@@ -227,38 +244,33 @@ void weld_repeated_positions(ReadResult& out, const std::string& name) {
   Eigen::MatrixXd V(nu, 3);
   for (Eigen::Index i = 0; i < nu; ++i)
     for (int k = 0; k < 3; ++k) V(i, k) = w.points[static_cast<std::size_t>(3 * i + k)];
-  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
-    for (int j = 0; j < 3; ++j) m.F(f, j) = w.index[static_cast<std::size_t>(m.F(f, j))];
-  m.V = std::move(V);
-  out.report.welded_vertices = n - nu;
-  out.report.warnings.push_back(name + ": " + std::to_string(n - nu) +
-                                " vertices repeat another vertex's exact position and were merged with it");
+  merge_vertices(out, std::move(V), w.index, name,
+                 " vertices repeat another vertex's exact position and were merged with it");
 }
 
 /// Merges vertices within rel x the bounding-box diagonal of each other (weld_within), keeping the
 /// lowest-numbered one's position.
 void weld_near_positions(ReadResult& out, const std::string& name, double rel) {
-  Mesh& m = out.mesh;
+  const Mesh& m = out.mesh;
   const Eigen::Index n = m.V.rows();
-  if (n == 0 || (m.F.size() && (m.F.minCoeff() < 0 || m.F.maxCoeff() >= n))) return;
+  if (n == 0 || !indices_in_range(m)) return;
   const double tol = rel * (m.V.colwise().maxCoeff() - m.V.colwise().minCoeff()).stableNorm();
-  const std::vector<int> root = weld_within(m.V, tol);
-  std::vector<int> index(static_cast<std::size_t>(n), -1);
-  Eigen::Index nu = 0;
+  std::vector<int> to_new = weld_within(m.V, tol);  // each vertex's root, then the root's new index
+  std::vector<int> kept;
   for (Eigen::Index i = 0; i < n; ++i)
-    if (root[static_cast<std::size_t>(i)] == i) index[static_cast<std::size_t>(i)] = static_cast<int>(nu++);
-  if (nu == n) return;
-  Eigen::MatrixXd V(nu, 3);
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (root[static_cast<std::size_t>(i)] == i) V.row(index[static_cast<std::size_t>(i)]) = m.V.row(i);
-  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
-    for (int j = 0; j < 3; ++j) m.F(f, j) = index[static_cast<std::size_t>(root[static_cast<std::size_t>(m.F(f, j))])];
-  m.V = std::move(V);
-  out.report.welded_vertices += n - nu;
+    if (to_new[static_cast<std::size_t>(i)] == i) kept.push_back(static_cast<int>(i));
+  if (static_cast<Eigen::Index>(kept.size()) == n) return;
+  std::vector<int> new_of_root(static_cast<std::size_t>(n), -1);
+  Eigen::MatrixXd V(static_cast<Eigen::Index>(kept.size()), 3);
+  for (std::size_t k = 0; k < kept.size(); ++k) {
+    new_of_root[static_cast<std::size_t>(kept[k])] = static_cast<int>(k);
+    V.row(static_cast<Eigen::Index>(k)) = m.V.row(kept[k]);
+  }
+  for (int& r : to_new) r = new_of_root[static_cast<std::size_t>(r)];
   char buf[160];
   std::snprintf(buf, sizeof buf, " vertices lie within %.3g (%g of the bounding-box diagonal) of another and were merged with it",
                 tol, rel);
-  out.report.warnings.push_back(name + ": " + std::to_string(n - nu) + buf);
+  merge_vertices(out, std::move(V), to_new, name, buf);
 }
 
 }  // namespace
