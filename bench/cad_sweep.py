@@ -3,12 +3,14 @@
 
 Each shape is built with Gmsh's OpenCASCADE kernel (a cone with its apex, a box with filleted edges,
 a cylinder with a cross hole, a sphere cut by a plane, half a torus; added in session 18, after the
-tangent-junction test was set: a capsule and a cylinder with filleted rims), meshed by Gmsh at size h, written
+tangent-junction test was set: a capsule and a cylinder with filleted rims; in session 25 three open surfaces,
+whose rims are boundary curves: a hemisphere, a pipe and a quarter torus), meshed by Gmsh at size h, written
 as STL, curved by `hocurve curve --order p`, and measured against the exact CAD: the largest distance
 from the element's own Lagrange map, sampled on a degree max(2p, 6) lattice, to the closest of the
 model's surfaces (gmsh.model.getClosestPoint). Also reported: the largest distance per CAD surface
 type (plane, cylinder, sphere, cone, torus, ...) closest to each sample, which tells where the
-error is (e.g. the fillets of a box), and that every element is valid and the mesh watertight.
+error is (e.g. the fillets of a box), and that every element is valid and the mesh watertight (open
+surfaces: conforming, every edge used twice but whole rim edges).
 REF P4: Gmsh's own P4 of the same triangulation from the exact CAD (setOrder(4)), for scale.
 --entities: hocurve reads Gmsh's .msh of the same mesh instead, each CAD face an entity, so the
 face borders (tangent ones too, e.g. where a fillet meets a plane) are feature curves.
@@ -29,6 +31,8 @@ from bench import measure_error as me  # noqa: E402
 from bench import shapes  # noqa: E402
 
 SHAPES = ["cone", "filletbox", "crosshole", "cutsphere", "halftorus", "capsule", "roundcyl"]
+# Open surfaces (session 25): the solid's planar faces removed, their rims left as boundary curves.
+OPEN = ["hemisphere", "pipe", "quartertorus"]
 
 
 def build(gmsh, name):
@@ -58,9 +62,20 @@ def build(gmsh, name):
         cyl = occ.addCylinder(0, 0, 0, 0, 0, 1, 0.5)
         occ.synchronize()
         occ.fillet([cyl], [t for (_, t) in gmsh.model.getEntities(1) if gmsh.model.getType(1, t) == "Circle"], [0.12])
+    elif name == "hemisphere":  # boundary: the equator, where the surface is vertical
+        sphere = occ.addSphere(0, 0, 0, 1)
+        occ.cut([(3, sphere)], [(3, occ.addBox(-2, -2, -2, 4, 4, 2))])
+    elif name == "pipe":  # boundary: two circles on a ruled surface
+        occ.addCylinder(0, 0, 0, 0, 0, 2, 0.5)
+    elif name == "quartertorus":  # boundary: two tube circles, across the saddle inside
+        torus = occ.addTorus(0, 0, 0, 1, 0.4)
+        occ.intersect([(3, torus)], [(3, occ.addBox(0, 0, -1, 2, 2, 2))])
     else:
         raise ValueError("unknown shape " + name)
     occ.synchronize()
+    if name in OPEN:
+        gmsh.model.removeEntities(gmsh.model.getEntities(3))
+        gmsh.model.removeEntities([(2, t) for (_, t) in gmsh.model.getEntities(2) if gmsh.model.getType(2, t) == "Plane"])
 
 
 def closest_surface(gmsh, P):
@@ -82,12 +97,15 @@ def measure(gmsh, msh, name):
     P = np.einsum("pn,enk->epk", B, m["X"]).reshape(-1, 3)
     d, kind = closest_surface(gmsh, P)
     by_kind = {k: float(d[kind == k].max()) for k in sorted(set(kind))}
-    return float(d.max()), by_kind, len(m["X"]), me.edge_check(m["conn"], m["order"])["watertight"]
+    ec = me.edge_check(m["conn"], m["order"])
+    # An open surface is closed but for its rims: every edge of vertices used once is one whole edge used once.
+    closed = ec["watertight"] or (name in OPEN and ec["edges_not_twice"] == ec["vertex_edges_not_twice"] > 0)
+    return float(d.max()), by_kind, len(m["X"]), closed
 
 
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("shapes", nargs="*", default=SHAPES)
+    ap.add_argument("shapes", nargs="*", default=SHAPES + OPEN)
     ap.add_argument("--hocurve", default=os.path.join(os.path.dirname(__file__), "..", "build", "hocurve"))
     ap.add_argument("--out", default="/tmp/hocurve-sweep")
     ap.add_argument("--sizes", default="0.1,0.05")

@@ -741,7 +741,10 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
 
   const int m = fit_coefficients(p);
   const bool one_sided = W.one_sided(w);
-  const int need = static_cast<int>(std::ceil((one_sided ? opt.points_per_coef_one_sided : opt.points_per_coef) * m));
+  // A vertex on an open boundary has one wedge but, like a one-sided one, a half disc of rings.
+  bool half_disc = one_sided;
+  for (auto [e, end] = T.edges_of(v); e != end && !half_disc; ++e) half_disc = T.edge_faces[*e].size() == 1;
+  const int need = static_cast<int>(std::ceil((half_disc ? opt.points_per_coef_one_sided : opt.points_per_coef) * m));
   StencilOptions so;
   so.min_rings = 1;
   so.max_rings = opt.max_rings;
