@@ -98,9 +98,9 @@ def measure(gmsh, msh, name):
     d, kind = closest_surface(gmsh, P)
     by_kind = {k: float(d[kind == k].max()) for k in sorted(set(kind))}
     ec = me.edge_check(m["conn"], m["order"])
-    # An open surface is closed but for its rims: every edge of vertices used once is one whole edge used once.
-    closed = ec["watertight"] or (name in OPEN and ec["edges_not_twice"] == ec["vertex_edges_not_twice"] > 0)
-    return float(d.max()), by_kind, len(m["X"]), closed
+    # Open surfaces and non-manifold ones cannot be watertight: conforming is what they can be.
+    tight = ec["watertight"] or (name in OPEN and ec["conforming"])
+    return float(d.max()), by_kind, len(m["X"]), tight
 
 
 def main(argv):

@@ -385,7 +385,8 @@ def edge_check(conn, order):
     # full-edge count 1).
     V = np.sort(np.concatenate([conn[:, [0, 1]], conn[:, [1, 2]], conn[:, [2, 0]]]), axis=1)
     _, vcnt = np.unique(V, axis=0, return_counts=True)
-    return {"edges": int(len(cnt)), "edges_not_twice": int((cnt != 2).sum()),
+    # conforming: each edge of vertices has one node set (open rims and non-manifold edges allowed).
+    return {"edges": int(len(cnt)), "edges_not_twice": int((cnt != 2).sum()), "conforming": bool(len(cnt) == len(vcnt)),
             "vertex_edges_not_twice": int((vcnt != 2).sum()),
             "watertight": bool((cnt == 2).all() and (vcnt == 2).all())}
 

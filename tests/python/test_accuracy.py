@@ -182,7 +182,7 @@ def check_open_surfaces(hoc, work):
         # Distances to the whole sphere / torus: the open surface's samples lie on its own part.
         dist = me.distance_function(sphere_or_torus, stl)
         lin, m, ref = (me.measure(x, sphere_or_torus, stl, dist=dist) for x in (stl, out, ref_path))
-        rim = m["edges_not_twice"] > 0 and m["edges_not_twice"] == m["vertex_edges_not_twice"]
+        rim = m["edges_not_twice"] > 0 and m["conforming"]
         check(m["max"] * gain <= lin["max"] and m["max"] <= 10 * ref["max"] and m["nonpositive_jacobian"] == 0 and rim,
               "%s: P4 %.3e, linear %.3e (%.0fx, >= %dx), Gmsh CAD P4 %.3e; valid, conforming but its %d rim edges" % (
                   name, m["max"], lin["max"], lin["max"] / max(m["max"], 1e-300), gain, ref["max"], m["edges_not_twice"]))
