@@ -10,7 +10,7 @@ struct Config {
   int port = 8080;                   ///< 0 = ephemeral; the bound port is logged first
   std::string data_dir = "./hocurved-data";
   int workers = 2;                   ///< concurrent jobs (worker processes)
-  int http_threads = 16;             ///< HTTP connection threads
+  int http_threads = 64;             ///< HTTP connection threads (each open connection holds one)
   int job_threads = 1;               ///< --threads passed to each worker
   double max_upload_mb = 64;         ///< POST /v1/jobs body cap
   double max_sync_mb = 4;            ///< POST /v1/curve body cap

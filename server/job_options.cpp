@@ -2,8 +2,12 @@
 
 #include "server/problem.hpp"
 
-#include <cmath>
 #include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <initializer_list>
+#include <set>
 #include <vector>
 
 namespace hocurve::server {
@@ -12,8 +16,18 @@ namespace {
 struct Errors {
   nlohmann::json list = nlohmann::json::array();
   void add(const std::string& key, const std::string& msg) {
-    list.push_back({{"pointer", "/options/" + key}, {"message", msg}});
+    std::string token;  // RFC 6901: '~' and '/' escaped
+    for (char c : key) token += c == '~' ? "~0" : c == '/' ? "~1" : std::string(1, c);
+    list.push_back({{"pointer", "/options/" + token}, {"message", msg}});
   }
+};
+
+// How a value is read. Query parameters are text ("3", "0.5", "true"); the multipart `options` part
+// is JSON and must use JSON types (3, 0.5, true): "3" there is a string, refused where a number is
+// expected. Without a list of the query's keys (objects built in code) strings are read as text.
+struct Value {
+  const nlohmann::json& v;
+  bool text;  // a string is read as text
 };
 
 std::string as_text(const nlohmann::json& v) {
@@ -21,15 +35,24 @@ std::string as_text(const nlohmann::json& v) {
   return v.dump();
 }
 
-bool parse_int(const nlohmann::json& v, long long& out) {
+// The value as the error message shows it: text as it is, JSON as JSON ("3" with its quotes).
+std::string shown(const Value& x) {
+  if (x.text && x.v.is_string()) return x.v.get<std::string>();
+  std::string s = x.v.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  if (x.v.is_string()) s += " (a JSON string: the options part takes JSON numbers and booleans, not strings)";
+  return s;
+}
+
+bool parse_int(const Value& x, long long& out) {
+  const nlohmann::json& v = x.v;
   if (v.is_number_integer()) { out = v.get<long long>(); return true; }
-  if (v.is_number_float()) {
+  if (v.is_number_float()) {  // 3.0 is an integer in JSON Schema
     double d = v.get<double>();
     if (std::floor(d) != d || std::abs(d) > 1e15) return false;
     out = (long long)d;
     return true;
   }
-  if (!v.is_string()) return false;
+  if (!v.is_string() || !x.text) return false;
   const std::string s = v.get<std::string>();
   if (s.empty() || s.size() > 18) return false;
   size_t i = (s[0] == '-' || s[0] == '+') ? 1 : 0;
@@ -40,10 +63,12 @@ bool parse_int(const nlohmann::json& v, long long& out) {
   return true;
 }
 
-bool parse_double(const nlohmann::json& v, double& out) {
+bool parse_double(const Value& x, double& out) {
+  const nlohmann::json& v = x.v;
   if (v.is_number()) { out = v.get<double>(); return std::isfinite(out); }
-  if (!v.is_string()) return false;
+  if (!v.is_string() || !x.text) return false;
   const std::string s = v.get<std::string>();
+  if (s.empty() || std::isspace((unsigned char)s[0])) return false;
   try {
     size_t pos = 0;
     out = std::stod(s, &pos);
@@ -53,13 +78,14 @@ bool parse_double(const nlohmann::json& v, double& out) {
   }
 }
 
-bool parse_bool(const nlohmann::json& v, bool& out) {
+// JSON: true or false. Text: exactly the API's enum 0, 1, true, false.
+bool parse_bool(const Value& x, bool& out) {
+  const nlohmann::json& v = x.v;
   if (v.is_boolean()) { out = v.get<bool>(); return true; }
-  if (v.is_number_integer() && (v == 0 || v == 1)) { out = v == 1; return true; }
-  if (!v.is_string()) return false;
+  if (!v.is_string() || !x.text) return false;
   const std::string s = v.get<std::string>();
-  if (s == "1" || s == "true" || s == "yes" || s == "") { out = true; return true; }
-  if (s == "0" || s == "false" || s == "no") { out = false; return true; }
+  if (s == "1" || s == "true") { out = true; return true; }
+  if (s == "0" || s == "false") { out = false; return true; }
   return false;
 }
 
@@ -76,13 +102,14 @@ nlohmann::json options_from_query(const std::multimap<std::string, std::string>&
   return raw;
 }
 
-nlohmann::json normalise_options(const nlohmann::json& raw) {
+nlohmann::json normalise_options(const nlohmann::json& raw, const std::set<std::string>* text_keys) {
   if (!raw.is_object())
     throw ApiError(400, "invalid-options", "options must be a JSON object, got " + std::string(raw.type_name()));
   static const std::vector<std::string> known = {"mode",          "order",     "nodes",         "format",
                                                  "binary",        "faces",     "ratio",         "max_deviation",
                                                  "tolerance",     "max_faces", "feature_angle", "long_edge_ratio",
                                                  "min_jacobian",  "redecimate", "tangent_junctions", "weld_tolerance"};
+  const auto value = [&](const std::string& key) { return Value{raw[key], !text_keys || text_keys->count(key) > 0}; };
   Errors err;
   for (auto& [k, v] : raw.items())
     if (std::find(known.begin(), known.end(), k) == known.end()) {
@@ -93,37 +120,45 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
 
   nlohmann::json out = nlohmann::json::object();
   std::string mode = "curve";
-  if (raw.contains("mode")) {
-    mode = as_text(raw["mode"]);
-    if (mode != "curve" && mode != "coarsen") err.add("mode", "mode must be 'curve' or 'coarsen', got '" + mode + "'");
-  }
+  // A string option among `allowed` (JSON: a string; text: as it is), or `fallback` when absent.
+  const auto choice = [&](const char* key, std::initializer_list<const char*> allowed, const char* fallback) {
+    if (!raw.contains(key)) return std::string(fallback);
+    const Value x = value(key);
+    const std::string got = x.v.is_string() ? x.v.get<std::string>() : "";
+    std::string list;
+    for (const char* a : allowed) list += std::string(list.empty() ? "" : " or ") + "'" + a + "'";
+    if (!x.v.is_string() || std::find(allowed.begin(), allowed.end(), got) == allowed.end())
+      err.add(key, std::string(key) + " must be " + list + ", got " + (x.v.is_string() ? "'" + got + "'" : shown(x)));
+    return x.v.is_string() ? got : as_text(x.v);
+  };
+  mode = choice("mode", {"curve", "coarsen"}, "curve");
   out["mode"] = mode;
 
   long long order = kDefaultOrder;
   if (raw.contains("order")) {
-    if (!parse_int(raw["order"], order) || order < kMinOrder || order > kMaxOrder)
+    if (!parse_int(value("order"), order) || order < kMinOrder || order > kMaxOrder)
       err.add("order", "order must be an integer from " + std::to_string(kMinOrder) + " to " +
-                           std::to_string(kMaxOrder) + ", got " + as_text(raw["order"]));
+                           std::to_string(kMaxOrder) + ", got " + shown(value("order")));
   }
   out["order"] = order;
   // An optional number `key` that ok() accepts; `what` words the accepted values for the error.
   const auto number = [&](const char* key, bool (*ok)(double), const char* what) {
     if (!raw.contains(key)) return;
     double x = 0;
-    if (!parse_double(raw[key], x) || !ok(x)) err.add(key, std::string(key) + " must be " + what + ", got " + as_text(raw[key]));
+    if (!parse_double(value(key), x) || !ok(x)) err.add(key, std::string(key) + " must be " + what + ", got " + shown(value(key)));
     out[key] = x;
   };
   // An optional face count `key` (4 .. 1e8).
   const auto face_count = [&](const char* key) {
     if (!raw.contains(key)) return;
     long long n = 0;
-    if (!parse_int(raw[key], n) || n < 4 || n > 100000000)
-      err.add(key, std::string(key) + " must be an integer from 4 to 1e8, got " + as_text(raw[key]));
+    if (!parse_int(value(key), n) || n < 4 || n > 100000000)
+      err.add(key, std::string(key) + " must be an integer from 4 to 1e8, got " + shown(value(key)));
     out[key] = n;
   };
   // Both modes: the feature threshold and the long-edge rule of the dense fits.
   number("feature_angle", [](double x) { return x >= 0 && x <= 180; }, "a number of degrees in [0, 180]");
-  number("long_edge_ratio", [](double x) { return x >= 0 && x <= 1e9; }, "a number >= 0 (0: off)");
+  number("long_edge_ratio", [](double x) { return x >= 0 && x <= 1e9; }, "a number in [0, 1e9] (0: off)");
   number("min_jacobian", [](double x) { return x >= 0 && x <= 0.9; }, "a number in [0, 0.9] (0: off)");
   number("weld_tolerance", [](double x) { return x >= 0 && x <= 0.01; }, "a number in [0, 0.01] (0: exact only)");
 
@@ -138,8 +173,8 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
     number("tolerance", [](double x) { return x >= 0 && x <= 1; }, "a number in [0, 1] (0: no refinement)");
     if (raw.contains("redecimate")) {
       long long n = 0;
-      if (!parse_int(raw["redecimate"], n) || n < 0 || n > 100)
-        err.add("redecimate", "redecimate must be an integer from 0 to 100, got " + as_text(raw["redecimate"]));
+      if (!parse_int(value("redecimate"), n) || n < 0 || n > 100)
+        err.add("redecimate", "redecimate must be an integer from 0 to 100, got " + shown(value("redecimate")));
       out["redecimate"] = n;
     }
     face_count("max_faces");
@@ -150,18 +185,15 @@ nlohmann::json normalise_options(const nlohmann::json& raw) {
     // Equispaced by default: Gmsh's Lagrange elements (and the readers that follow them) put node k
     // at the k-th equispaced point, so Lobatto nodes read as equispaced distort the surface
     // (measured on the unit sphere, h = 0.1, P4: 4.4e-8 equispaced, 4.8e-5 Lobatto).
-    std::string nodes = raw.contains("nodes") ? as_text(raw["nodes"]) : "equispaced";
-    if (nodes != "equispaced" && nodes != "lobatto")
-      err.add("nodes", "nodes must be 'equispaced' or 'lobatto', got '" + nodes + "'");
-    out["nodes"] = nodes;
-    std::string format = raw.contains("format") ? as_text(raw["format"]) : "msh41";
-    if (format != "msh41" && format != "msh22")
-      err.add("format", "format must be 'msh41' or 'msh22', got '" + format + "'");
-    out["format"] = format;
-    // An optional 0/1/true/false `key` read into value; false when absent.
-    const auto flag = [&](const char* key, bool& value) {
+    out["nodes"] = choice("nodes", {"equispaced", "lobatto"}, "equispaced");
+    out["format"] = choice("format", {"msh41", "msh22"}, "msh41");
+    // An optional boolean `key` (text: 0/1/true/false) read into `on`; false when absent.
+    const auto flag = [&](const char* key, bool& on) {
       if (!raw.contains(key)) return false;
-      if (!parse_bool(raw[key], value)) err.add(key, std::string(key) + " must be 0/1/true/false, got " + as_text(raw[key]));
+      const Value x = value(key);
+      if (!parse_bool(x, on))
+        err.add(key, std::string(key) + (x.text ? " must be 0, 1, true or false" : " must be true or false") + ", got " +
+                         shown(x));
       return true;
     };
     bool binary = false, junctions = true;

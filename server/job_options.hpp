@@ -2,6 +2,7 @@
 #pragma once
 #include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -11,13 +12,16 @@ inline constexpr int kMinOrder = 2;
 inline constexpr int kMaxOrder = 6;
 inline constexpr int kDefaultOrder = 4;  ///< the CLI's default too
 
-/// Validates raw options (every value may be a string, as from a query string, or a JSON scalar)
-/// and returns them normalised with defaults filled:
-/// {mode, order, nodes, format, binary} for curve, {mode, order, faces|ratio} for coarsen.
+/// Validates raw options and returns them normalised with defaults filled:
+/// {mode, order, nodes, format, binary} for curve, {mode, order, faces|ratio} for coarsen, plus the
+/// optional keys given. The values of `text_keys` (the query string's) are text: integers and
+/// numbers as decimal text, booleans exactly 0, 1, true or false (the API's enum); the other values
+/// (the multipart `options` part) must have the schema's JSON type: {"order": "3"} or {"binary": 1}
+/// is refused. Without text_keys (an object built in code) every string is read as text.
 /// Throws ApiError(400, "invalid-options") listing every offending key in `errors[]`.
-nlohmann::json normalise_options(const nlohmann::json& raw);
+nlohmann::json normalise_options(const nlohmann::json& raw, const std::set<std::string>* text_keys = nullptr);
 
-/// Query parameters to a raw options object (repeated keys are an error).
+/// Query parameters to a raw options object, every value its text (repeated keys are an error).
 nlohmann::json options_from_query(const std::multimap<std::string, std::string>& params);
 
 /// argv of the worker for one job (program first).

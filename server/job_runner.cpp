@@ -11,6 +11,7 @@
 #include <fcntl.h>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <poll.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -39,15 +40,28 @@ std::string last_line(const std::string& path) {
   return last;
 }
 
+/// Removes the job folder `dir` (ending in '/') from every string in j: the worker's stats name
+/// its input and output by path, and server paths stay private.
+void strip_dir(nlohmann::json& j, const std::string& dir) {
+  if (j.is_string()) {
+    std::string s = j.get<std::string>();
+    for (size_t at; (at = s.find(dir)) != std::string::npos;) s.erase(at, dir.size());
+    j = s;
+  } else if (j.is_structured()) {
+    for (auto& v : j) strip_dir(v, dir);
+  }
+}
+
 std::string signal_name(int sig) {
   const char* d = strsignal(sig);
   return "signal " + std::to_string(sig) + (d ? std::string(" (") + d + ")" : "");
 }
 
 /// Runs a short helper command (e.g. `hocurve info IN --json`) with the job's limits and a
-/// wall-clock timeout; returns its wait status (-1 on timeout or spawn failure) and stdout (≤ 1 MiB).
+/// wall-clock timeout, stopped early when stop() says so; returns its wait status (-1 on timeout,
+/// stop or spawn failure) and stdout (≤ 1 MiB).
 std::pair<int, std::string> run_capture(const std::vector<std::string>& args, double timeout_s, rlim_t mem,
-                                        const std::string& stderr_path) {
+                                        const std::string& stderr_path, const std::function<bool()>& stop) {
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
@@ -84,7 +98,7 @@ std::pair<int, std::string> run_capture(const std::vector<std::string>& args, do
   bool timed_out = false;
   for (;;) {
     struct pollfd p = {pipefd[0], POLLIN, 0};
-    if (std::chrono::steady_clock::now() > deadline) {
+    if (std::chrono::steady_clock::now() > deadline || stop()) {
       timed_out = true;
       ::kill(-pid, SIGKILL);
       break;
@@ -201,6 +215,17 @@ void JobRunner::worker_loop() {
       run_job(id);
     } catch (const std::exception& e) {
       log_error("job runner error", {{"job_id", id}, {"error", e.what()}});
+      try {  // a job left "running" would run again after every restart
+        store_.update(id, [&](Job& j) {
+          if (j.terminal()) return;
+          j.status = j.stage = "failed";
+          j.finished = now_seconds();
+          j.expires = j.finished + config_.retention;
+          j.error = make_problem(500, "internal", std::string("job runner error: ") + e.what());
+        });
+      } catch (const std::exception& e2) {
+        log_error("job state not saved", {{"job_id", id}, {"error", e2.what()}});
+      }
     }
     std::lock_guard<std::mutex> lock(mutex_);
     running_.erase(id);
@@ -256,6 +281,7 @@ void JobRunner::run_job(const std::string& id) {
       std::ifstream in(stats);
       if (in) stats_json = nlohmann::json::parse(in, nullptr, false);
       if (stats_json.is_discarded()) stats_json = nullptr;
+      strip_dir(stats_json, dir + "/");
       store_.add_disk_bytes((std::int64_t)bytes);
     } else {
       fs::remove(part, ec);
@@ -297,8 +323,12 @@ void JobRunner::run_job(const std::string& id) {
   // Input counts from `hocurve info --json` (cheap); a mesh it refuses fails the job right here.
   const rlim_t mem_limit = (rlim_t)(config_.job_memory_mb * 1024 * 1024);
   {
+    auto stop = [&] {  // a cancel or a shutdown stops the info step too (the main run then sees why)
+      std::lock_guard<std::mutex> lock(mutex_);
+      return cancel_requests_.count(id) > 0 || kill_all_;
+    };
     auto [st, out] = run_capture({worker_bin_, "info", input, "--json"}, std::min(config_.job_timeout, 60.0),
-                                 mem_limit, logfile);
+                                 mem_limit, logfile, stop);
     if (st >= 0 && WIFEXITED(st) && WEXITSTATUS(st) == 0) {
       auto info = nlohmann::json::parse(out, nullptr, false);
       if (info.is_object()) {
@@ -445,6 +475,7 @@ void JobRunner::run_job(const std::string& id) {
     if (WIFEXITED(status)) outcome = {ProcessOutcome::kExited, WEXITSTATUS(status), ""};
     else if (WIFSIGNALED(status)) outcome = {ProcessOutcome::kSignaled, WTERMSIG(status), ""};
   }
+  store_.remove_leftovers(id);
   const std::string err_line = last_line(logfile);
   const std::string because = err_line.empty() ? "" : ": " + err_line;
   switch (outcome.kind) {
@@ -499,6 +530,10 @@ void JobRunner::run_job(const std::string& id) {
       finish("failed", make_problem(500, "internal", "cannot execute worker '" + worker_bin_ + "'"));
       return;
     default:
+      if (err_line.find("No space left on device") != std::string::npos) {
+        finish("failed", make_problem(507, "storage-full", "the data directory's disk is full" + because));
+        return;
+      }
       finish("failed", make_problem(500, "internal",
                                     "worker failed with exit code " + std::to_string(outcome.code) + because));
       return;

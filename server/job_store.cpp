@@ -1,4 +1,5 @@
 #include "server/job_store.hpp"
+#include "server/json_text.hpp"
 
 #include "server/log.hpp"
 
@@ -171,6 +172,7 @@ std::vector<Job> JobStore::load() {
   std::sort(loaded.begin(), loaded.end(), [](const Job& a, const Job& b) { return a.id < b.id; });
   std::lock_guard<std::mutex> lock(mutex_);
   for (auto& j : loaded) {
+    remove_leftovers(j.id);
     jobs_[j.id] = j;
     if (!j.idempotency_key.empty()) idempotency_[j.idempotency_key] = j.id;
     for (auto& f : fs::directory_iterator(job_dir(j.id), ec))
@@ -179,8 +181,16 @@ std::vector<Job> JobStore::load() {
   return loaded;
 }
 
+void JobStore::remove_leftovers(const std::string& id) const {
+  std::error_code ec;
+  std::vector<fs::path> tmp;
+  for (auto& f : fs::directory_iterator(job_dir(id), ec))
+    if (f.path().filename().string().find(".tmp") != std::string::npos) tmp.push_back(f.path());
+  for (auto& f : tmp) fs::remove(f, ec);
+}
+
 void JobStore::persist(const Job& job) const {
-  write_file_atomic(job_dir(job.id) + "/state.json", job_to_state(job).dump(2) + "\n");
+  write_file_atomic(job_dir(job.id) + "/state.json", json_text(job_to_state(job), 2) + "\n");
 }
 
 void JobStore::persist_version(const Job& job, std::uint64_t v) {
@@ -293,13 +303,21 @@ std::optional<Job> JobStore::find_idempotent(const std::string& key) const {
   return jt->second;
 }
 
-std::optional<Job> JobStore::wait_terminal(const std::string& id, double timeout_s) const {
+std::optional<Job> JobStore::wait_terminal(const std::string& id, double timeout_s) {
   std::unique_lock<std::mutex> lock(mutex_);
   auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   for (;;) {
     auto it = jobs_.find(id);
     if (it == jobs_.end()) return std::nullopt;
-    if (it->second.terminal()) return it->second;
+    if (it->second.terminal()) {
+      // The state is changed in memory before it is saved: save it here if the updater has not
+      // yet, so that what the caller reports (DELETE's "cancelled") survives a crash.
+      const Job copy = it->second;
+      const std::uint64_t version = versions_[id];
+      lock.unlock();
+      persist_version(copy, version);
+      return copy;
+    }
     if (changed_.wait_until(lock, deadline) == std::cv_status::timeout) {
       auto jt = jobs_.find(id);
       if (jt == jobs_.end()) return std::nullopt;

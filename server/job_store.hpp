@@ -60,6 +60,10 @@ class JobStore {
   std::string job_dir(const std::string& id) const;
   std::string uploads_dir() const;
 
+  /// Deletes the temporary files an interrupted atomic write left in job id's folder (a worker
+  /// killed while writing its result leaves megabytes that nothing else would remove).
+  void remove_leftovers(const std::string& id) const;
+
   /// Adds (and persists) a new job; the job's folder must exist.
   void insert(const Job& job);
   std::optional<Job> get(const std::string& id) const;
@@ -74,7 +78,8 @@ class JobStore {
   std::optional<Job> find_idempotent(const std::string& key) const;
 
   /// Waits until the job is terminal (or gone, or `timeout_s` elapsed); returns its last state.
-  std::optional<Job> wait_terminal(const std::string& id, double timeout_s) const;
+  /// A terminal state is on disk when it is returned.
+  std::optional<Job> wait_terminal(const std::string& id, double timeout_s);
 
   /// Counts by status.
   std::map<std::string, long long> counts() const;

@@ -1,4 +1,5 @@
 #include "server/log.hpp"
+#include "server/json_text.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -34,7 +35,7 @@ void log_json(const std::string& level, const std::string& msg, nlohmann::json f
   rec["msg"] = msg;
   if (fields.is_object())
     for (auto& [k, v] : fields.items()) rec[k] = v;
-  std::string line = rec.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  std::string line = json_text(rec);
   line += '\n';
   std::lock_guard<std::mutex> lock(mutex);
   std::fwrite(line.data(), 1, line.size(), stdout);

@@ -55,9 +55,11 @@ int main(int argc, char** argv) {
   });
   const int threads = config.http_threads;
   svr.new_task_queue = [threads] { return new httplib::ThreadPool((size_t)threads); };
+  // Each open connection holds a pool thread: idle ones are let go quickly, so that a burst of
+  // idle or slow clients cannot starve the probes (upload.cpp also cuts off slow bodies).
   svr.set_keep_alive_max_count(5);
-  svr.set_keep_alive_timeout(2);
-  svr.set_read_timeout(30);
+  svr.set_keep_alive_timeout(1);
+  svr.set_read_timeout(15);
   svr.set_write_timeout(30);
   svr.set_payload_max_length((size_t)(std::max(config.max_upload_mb, config.max_sync_mb) * 1048576) + (1u << 20));
 

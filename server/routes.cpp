@@ -3,6 +3,7 @@
 #include "server/app.hpp"
 #include "server/format_sniff.hpp"
 #include "server/job_options.hpp"
+#include "server/json_text.hpp"
 #include "server/log.hpp"
 #include "server/problem.hpp"
 #include "server/upload.hpp"
@@ -24,6 +25,9 @@
 #include <set>
 #include <sstream>
 #include <fcntl.h>
+#include <netdb.h>
+#include <poll.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -41,6 +45,33 @@ using httplib::Request;
 using httplib::Response;
 
 namespace {
+
+/// The socket of req's connection, found by its peer address (cpp-httplib 0.11 does not hand it
+/// to handlers); -1 if not found.
+int connection_socket(const Request& req) {
+  std::error_code ec;
+  for (auto& entry : fs::directory_iterator("/proc/self/fd", ec)) {
+    const int fd = std::atoi(entry.path().filename().c_str());
+    sockaddr_storage addr{};
+    socklen_t len = sizeof addr;
+    if (::getpeername(fd, (sockaddr*)&addr, &len) != 0) continue;
+    char host[NI_MAXHOST], port[NI_MAXSERV];
+    if (::getnameinfo((sockaddr*)&addr, len, host, sizeof host, port, sizeof port, NI_NUMERICHOST | NI_NUMERICSERV) != 0)
+      continue;
+    if (req.remote_addr == host && std::to_string(req.remote_port) == port) return fd;
+  }
+  return -1;
+}
+
+/// True when the client at the other end of `fd` has closed or reset the connection.
+bool client_gone(int fd) {
+  if (fd < 0) return false;
+  pollfd p = {fd, POLLRDHUP, 0};
+  return ::poll(&p, 1, 0) > 0 && (p.revents & (POLLRDHUP | POLLHUP | POLLERR));
+}
+
+/// /readyz says not ready below this much free disk in the data directory.
+constexpr std::uintmax_t kMinFreeBytes = 16u << 20;
 
 constexpr const char* kIdPattern = "([A-Za-z0-9_-]{1,64})";
 constexpr const char* kProblemType = "application/problem+json";
@@ -65,7 +96,7 @@ std::string new_request_id() {
 
 void send_json(Response& res, int status, const nlohmann::json& body) {
   res.status = status;
-  res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "application/json");
+  res.set_content(json_text(body) + "\n", "application/json");
 }
 
 void send_problem(const Request& req, Response& res, int status, const std::string& type, const std::string& detail,
@@ -80,7 +111,7 @@ void send_problem(const Request& req, Response& res, int status, const std::stri
   res.status = status;
   if (status == 429 || status == 503) res.set_header("Retry-After", "2");
   if (status == 401) res.set_header("WWW-Authenticate", "Bearer realm=\"hocurved\"");
-  res.set_content(p.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", kProblemType);
+  res.set_content(json_text(p) + "\n", kProblemType);
 }
 
 void send_problem(const Request& req, Response& res, const ApiError& e) {
@@ -202,6 +233,8 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
   }
   // Options from the query string are validated before the upload is read.
   nlohmann::json raw = options_from_query(req.params);
+  std::set<std::string> query_keys;  // text; the multipart options part is JSON
+  for (auto& [k, _] : raw.items()) query_keys.insert(k);
   const bool multipart = req.is_multipart_form_data();
   if (!multipart) {
     try {
@@ -212,9 +245,10 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
     }
   }
   std::string key = req.get_header_value("Idempotency-Key");
-  if (key.size() > 255 || key.find_first_of("\r\n\"") != std::string::npos) {
+  const bool control = std::any_of(key.begin(), key.end(), [](char c) { return (unsigned char)c < 0x20 || c == 0x7f; });
+  if (key.size() > 255 || control || key.find('"') != std::string::npos || !is_utf8(key)) {
     discard_body(req, res, reader);
-    throw ApiError(400, "invalid-request", "Idempotency-Key must be at most 255 printable characters");
+    throw ApiError(400, "invalid-request", "Idempotency-Key must be at most 255 printable characters of UTF-8");
   }
   if (!key.empty()) {
     std::lock_guard<std::mutex> lock(app.keys_mutex);
@@ -277,7 +311,7 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
         raw[k] = v;
       }
     }
-    options = normalise_options(raw);
+    options = normalise_options(raw, &query_keys);
   } catch (const ApiError& e) {
     throw drop(e);
   }
@@ -286,7 +320,7 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
   if (sniff.format.empty())
     throw drop(ApiError(415, "unsupported-media-type",
                         "unknown mesh format: the upload is not STL, OBJ, PLY, OFF or Gmsh .msh (optionally gzipped)"));
-  const std::string fingerprint = up.fingerprint + ":" + options.dump();
+  const std::string fingerprint = up.fingerprint + ":" + json_text(options);
 
   if (!key.empty()) {
     if (auto prior = app.store.find_idempotent(key)) {
@@ -315,7 +349,14 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
     throw ApiError(500, "internal", "cannot move the upload into the job folder");
   }
   app.store.add_disk_bytes((std::int64_t)up.bytes);
-  app.store.insert(job);
+  try {
+    app.store.insert(job);
+  } catch (const std::exception& e) {  // the state could not be saved: leave nothing behind
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+    app.store.add_disk_bytes(-(std::int64_t)up.bytes);
+    throw ApiError(503, "storage-unavailable", std::string("cannot save the job's state: ") + e.what());
+  }
   if (!app.runner.enqueue(job.id, false, sync)) {
     app.store.remove(job.id);
     app.metrics.rejected_queue_full++;
@@ -463,6 +504,15 @@ void install_routes(httplib::Server& svr, App& app) {
     if (::access(app.store.uploads_dir().c_str(), W_OK) != 0)
       return send_problem(req, res, 503, "storage-unavailable",
                           std::string("the data directory is not writable: ") + std::strerror(errno));
+    // A disk with no room fails every upload and every result write.
+    std::error_code ec;
+    const auto space = fs::space(app.store.uploads_dir(), ec);
+    if (!ec && space.available < kMinFreeBytes)
+      return send_problem(req, res, 503, "storage-full",
+                          "the data directory's disk has " + std::to_string(space.available / 1024) + " KiB free");
+    if (::access(app.runner.worker_bin().c_str(), X_OK) != 0)
+      return send_problem(req, res, 503, "internal",
+                          "the worker program '" + app.runner.worker_bin() + "' cannot be executed: " + std::strerror(errno));
     send_json(res, 200, {{"status", "ready"}, {"queue_depth", app.runner.queue_depth()}, {"running", app.runner.running()}});
   });
   svr.Get("/metrics", [&app](const Request&, Response& res) {
@@ -516,7 +566,22 @@ void install_routes(httplib::Server& svr, App& app) {
            }));
   svr.Post("/v1/curve", guarded_reader([&app](const Request& req, Response& res, const ContentReader& reader) {
              Created c = create_job(app, req, res, reader, true);
-             auto done = app.store.wait_terminal(c.job.id, app.config.job_timeout + 30);
+             // A client that hangs up no longer wants the result: its job is cancelled, so that
+             // abandoned requests do not keep the workers busy. (A client that only shuts down its
+             // sending side looks the same; HTTP/1.1 clients do not.) Not a replay's: that job is
+             // another request's.
+             const int fd = c.replay ? -1 : connection_socket(req);
+             const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(app.config.job_timeout + 30);
+             auto done = app.store.wait_terminal(c.job.id, 0.5);
+             while (done && !done->terminal() && std::chrono::steady_clock::now() < deadline) {
+               if (client_gone(fd)) {
+                 app.runner.cancel(c.job.id);
+                 done = app.store.wait_terminal(c.job.id, 5.0);
+                 log_info("sync job cancelled: the client hung up", {{"job_id", c.job.id}, {"request_id", t_request_id}});
+                 break;
+               }
+               done = app.store.wait_terminal(c.job.id, 0.5);
+             }
              struct Cleanup {
                App& app;
                std::string id;
@@ -538,7 +603,7 @@ void install_routes(httplib::Server& svr, App& app) {
              }
              res.set_header("X-Job-Id", done->id);
              if (done->stats.is_object()) {
-               std::string s = done->stats.dump();
+               std::string s = json_text(done->stats);
                if (s.size() < 4000) res.set_header("X-Hocurve-Stats", s);
              }
              stream_file(app, res, app.store.job_dir(done->id) + "/result.msh", "curved.msh");

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <fcntl.h>
@@ -33,13 +34,26 @@ bool mesh_media_type(const std::string& content_type) {
   return false;
 }
 
+/// An upload slower than this on average, once kSlowGrace has passed, is cut off: each one holds
+/// an HTTP thread, and a few clients dripping bytes would otherwise stall every request (health
+/// probes too). 16 KiB/s moves 100 MB in under two hours.
+constexpr double kMinUploadRate = 16 * 1024, kSlowGrace = 15;
+
 struct Sink {
   int fd = -1;
   std::uint64_t bytes = 0, cap = 0, hash = 1469598103934665603ULL;  // FNV-1a 64
   std::string head;
-  bool too_large = false, io_error = false;
+  bool too_large = false, io_error = false, too_slow = false;
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  /// False (and too_slow set) when the body so far, `total` bytes, came in below kMinUploadRate.
+  bool fast_enough(std::uint64_t total) {
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    too_slow = t > kSlowGrace && total < kMinUploadRate * t;
+    return !too_slow;
+  }
   bool write(const char* data, size_t n) {
     bytes += n;
+    if (!fast_enough(bytes)) return false;
     if (bytes > cap) {
       too_large = true;
       return false;
@@ -151,6 +165,7 @@ Upload receive_upload(const httplib::Request& req, const httplib::ContentReader&
           },
           [&](const char* data, size_t n) {
             if (current == "mesh") return sink.write(data, n);
+            if (!sink.fast_enough(sink.bytes + up.options_json.size() + n)) return false;
             if (up.options_json.size() + n > kMaxOptionsPart) {
               bad_part = "options (larger than 64 KiB)";
               return false;
@@ -177,6 +192,9 @@ Upload receive_upload(const httplib::Request& req, const httplib::ContentReader&
                   "upload exceeds the limit of " + std::to_string(cap) + " bytes (" + mb(cap) + ")",
                   {{"limit_bytes", cap}}));
   if (sink.io_error) fail(ApiError(507, "quota-exceeded", "cannot store the upload (disk full?)"));
+  if (sink.too_slow)
+    fail(ApiError(408, "request-timeout", "the upload came in slower than " +
+                                              std::to_string((int)(kMinUploadRate / 1024)) + " KiB/s"));
   if (!bad_part.empty())
     fail(ApiError(400, "invalid-request",
                   "unexpected multipart part '" + bad_part + "': only 'mesh' (the file) and 'options' (JSON) are accepted"));

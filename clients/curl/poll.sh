@@ -15,7 +15,9 @@ while :; do
     succeeded) cat "$body"; exit 0 ;;
     failed|cancelled) cat "$body"; exit 1 ;;
   esac
-  printf '\r%s %s' "$state" "$(json_field fraction < "$body")" >&2
+  # Progress as a whole percentage (the fraction is a double, e.g. 0.30000000000000004) and the stage.
+  percent=$(json_field fraction < "$body" | LC_ALL=C awk '{ f = $1 + 0; if (f < 0) f = 0; if (f > 1) f = 1; printf "%d", f * 100 + 0.5 }')
+  printf '\r%s %s%% %-16s' "$state" "${percent:-0}" "$(json_string stage < "$body")" >&2
   [ "$(date +%s)" -lt "$deadline" ] || { echo "error: timeout waiting for $1" >&2; exit 1; }
   sleep 0.5
 done

@@ -14,6 +14,7 @@ As a program:
 Errors are RFC 9457 problem details; the CLI prints their title and detail and exits 1.
 """
 import argparse
+import errno
 import json
 import os
 import sys
@@ -73,14 +74,21 @@ class Client:
             if stream_to is not None:
                 total = 0
                 tmp = stream_to + ".part"
-                with open(tmp, "wb") as f:
-                    while True:
-                        chunk = resp.read(1 << 16)
-                        if not chunk:
-                            break
-                        f.write(chunk)
-                        total += len(chunk)
-                os.replace(tmp, stream_to)
+                try:
+                    with open(tmp, "wb") as f:
+                        while True:
+                            chunk = resp.read(1 << 16)
+                            if not chunk:
+                                break
+                            f.write(chunk)
+                            total += len(chunk)
+                    os.replace(tmp, stream_to)
+                except BaseException:
+                    try:
+                        os.remove(tmp)
+                    except OSError:
+                        pass
+                    raise
                 return resp.status, dict(resp.headers), total
             data = resp.read()
             ctype = resp.headers.get("Content-Type", "")
@@ -202,10 +210,10 @@ def _multipart(boundary, filename, data, options):
 
 def _progress_bar(job, stream=sys.stderr):
     p = job.get("progress") or {}
-    frac = float(p.get("fraction") or 0.0)
+    frac = min(max(float(p.get("fraction") or 0.0), 0.0), 1.0)
     width = 30
     filled = int(round(frac * width))
-    stream.write("\r[%s%s] %3d%% %-10s %-12s" % ("#" * filled, "." * (width - filled), frac * 100,
+    stream.write("\r[%s%s] %3d%% %-10s %-12s" % ("#" * filled, "." * (width - filled), int(round(frac * 100)),
                                                job["status"], (p.get("stage") or "")[:12]))
     stream.flush()
 
@@ -248,13 +256,15 @@ def main(argv=None):
     sub.add_parser("info")
     args = ap.parse_args(argv)
 
-    token = None
-    if args.token_file:
-        with open(args.token_file) as f:
-            token = f.read().strip()
-    c = Client(args.url, token=token)
     out = sys.stdout
     try:
+        token = None
+        if args.token_file:
+            with open(args.token_file) as f:
+                token = f.read().strip()
+        c = Client(args.url, token=token)
+        if getattr(args, "output", None):
+            _check_writable(args.output)  # before uploading or waiting: fail in a second, not after the job
         if args.cmd == "submit":
             opts = {k: getattr(args, k) for k in ("mode", "order", "nodes", "format", "faces", "ratio", "max_deviation",
                                                   "redecimate", "tolerance", "max_faces", "feature_angle", "long_edge_ratio",
@@ -297,6 +307,28 @@ def main(argv=None):
     except TimeoutError as e:
         sys.stderr.write("error: %s\n" % e)
         return 1
+    except OSError as e:  # a local file: the mesh, the output, the token file
+        sys.stderr.write("error: %s\n" % _os_error_text(e))
+        return 1
+
+
+def _os_error_text(e):
+    """`PATH: reason` of an OSError, without the errno prefix."""
+    what = e.strerror or str(e)
+    return "%s: %s" % (e.filename, what) if e.filename else what
+
+
+def _check_writable(path):
+    """Raises OSError unless a file can be created at `path` (its directory exists and is writable)."""
+    d = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(d):
+        raise OSError(errno.ENOENT if not os.path.exists(d) else errno.ENOTDIR,
+                      "cannot write the output: %s" % ("no such directory" if not os.path.exists(d) else
+                                                       "not a directory"), d)
+    if os.path.isdir(path):
+        raise OSError(errno.EISDIR, "cannot write the output: it is a directory", path)
+    if not os.access(d, os.W_OK):
+        raise OSError(errno.EACCES, "cannot write the output: directory not writable", d)
 
 
 def _finish(c, job, output, out):

@@ -66,6 +66,42 @@ def binary_stl(triangles, declared=None):
     return bytes(data)
 
 
+def schema_errors(value, schema, path=""):
+    """The JSON Schema keywords the API documents use for options (type, enum, bounds, properties,
+    additionalProperties), checked by hand: Debian's python3 has no jsonschema."""
+    errs = []
+    t = schema.get("type")
+    kinds = {"object": lambda v: isinstance(v, dict), "string": lambda v: isinstance(v, str),
+             "boolean": lambda v: isinstance(v, bool),
+             "integer": lambda v: not isinstance(v, bool) and isinstance(v, (int, float)) and float(v).is_integer(),
+             "number": lambda v: not isinstance(v, bool) and isinstance(v, (int, float))}
+    if t and not any(kinds[k](value) for k in ([t] if isinstance(t, str) else t)):
+        return ["%s: %r is not of type %s" % (path, value, t)]
+    if "enum" in schema and value not in schema["enum"]:
+        errs.append("%s: %r not in %r" % (path, value, schema["enum"]))
+    if "minimum" in schema and value < schema["minimum"]:
+        errs.append("%s: %r < minimum %r" % (path, value, schema["minimum"]))
+    if "maximum" in schema and value > schema["maximum"]:
+        errs.append("%s: %r > maximum %r" % (path, value, schema["maximum"]))
+    if "exclusiveMinimum" in schema and value <= schema["exclusiveMinimum"]:
+        errs.append("%s: %r <= exclusiveMinimum %r" % (path, value, schema["exclusiveMinimum"]))
+    if isinstance(value, dict):
+        props = schema.get("properties", {})
+        for k, v in value.items():
+            if k in props:
+                errs += schema_errors(v, props[k], path + "/" + k)
+            elif schema.get("additionalProperties") is False:
+                errs.append("%s: additional property %r" % (path, k))
+    return errs
+
+
+def multipart(mesh, options):
+    """A multipart/form-data body with the parts `mesh` and `options` (raw bytes of the JSON part)."""
+    return (b"--XyZ\r\nContent-Disposition: form-data; name=\"mesh\"; filename=\"s.stl\"\r\n\r\n" + mesh +
+            b"\r\n--XyZ\r\nContent-Disposition: form-data; name=\"options\"\r\n"
+            b"Content-Type: application/json\r\n\r\n" + options + b"\r\n--XyZ--\r\n")
+
+
 class ServerApi(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -111,6 +147,69 @@ class ServerApi(unittest.TestCase):
         text = json.dumps(doc)
         for slug in slugs:
             self.assertIn(slug, text, "problem type %s not in openapi.yaml" % slug)
+
+    def test_openapi_job_options_match_the_server(self):
+        served = json.loads(raw(self.d.url, "GET", "/v1/openapi.json")[2])
+        with open(os.path.join(D.SOURCE_DIR, "api", "openapi.yaml")) as f:
+            self.assertEqual(served, json.load(f))  # the file is served as it is
+        schema = served["components"]["schemas"]["JobOptions"]
+        # The server's option names (job_options.cpp is the truth) = the schema's = each upload's query parameters.
+        with open(os.path.join(D.SOURCE_DIR, "server", "job_options.cpp")) as f:
+            src = f.read()
+        known = set(re.findall(r'"([a-z_]+)"', re.search(r"known = \{(.*?)\};", src, re.S).group(1)))
+        self.assertEqual(set(schema["properties"]), known)
+        with open(os.path.join(D.SOURCE_DIR, "api", "schemas", "JobOptions.json")) as f:
+            standalone = json.load(f)
+        self.assertEqual({k: v for k, v in standalone.items() if not k.startswith("$")}, schema)
+        for path in ("/v1/jobs", "/v1/curve"):
+            params = {p["name"]: p for p in served["paths"][path]["post"]["parameters"] if p["in"] == "query"}
+            self.assertEqual(set(params), known, path)
+            for name, p in params.items():
+                prop = schema["properties"][name]
+                self.assertEqual(p.get("description"), prop.get("description"), name)
+                if prop["type"] == "boolean":  # query text: exactly the enum
+                    self.assertEqual(p["schema"]["enum"], ["0", "1", "true", "false"], name)
+                    self.assertEqual(p["schema"]["default"], "1" if prop["default"] else "0", name)
+                else:
+                    self.assertEqual(p["schema"], {k: v for k, v in prop.items() if k != "description"}, name)
+        # Every bound of the schema is the server's: at a bound accepted (an empty body is then refused
+        # as invalid-mesh, after the options), past it refused with the option's pointer.
+        context = {"curve only": "", "coarsen only": "mode=coarsen&faces=100&"}
+        for name, prop in schema["properties"].items():
+            desc = prop.get("description", "")
+            pre = next((q for k, q in context.items() if desc.startswith(k)), "")
+            if name in ("faces", "ratio"):
+                pre = "mode=coarsen&"
+            if name == "max_faces":
+                pre += "tolerance=0.01&"
+            integer = prop["type"] == "integer"
+            probes = []  # (value, accepted)
+            if "minimum" in prop:
+                probes += [(prop["minimum"], True), (prop["minimum"] - (1 if integer else 1e-3), False)]
+            if "exclusiveMinimum" in prop:
+                probes += [(prop["exclusiveMinimum"], False)]
+            if "maximum" in prop:
+                probes += [(prop["maximum"], True), (prop["maximum"] + 1 if integer else prop["maximum"] * 1.001, False)]
+            elif prop["type"] in ("integer", "number"):
+                probes.append((10 ** 15, True))  # no documented upper bound
+            for value, ok in probes:
+                text = str(int(value)) if integer else repr(float(value))
+                st, _, body = self.post("/v1/jobs?%s%s=%s" % (pre, name, text), b"")
+                if ok:
+                    self.assertEqual(st, 422, "%s=%s: %s" % (name, text, body[:300]))
+                else:
+                    p = problem(self, (st, _, body), 400, "invalid-options")
+                    self.assertIn("/options/" + name, [e["pointer"] for e in p["errors"]], text)
+        # Defaults the server fills in are the documented ones, and every job's options validate.
+        self.submit_wait(options={"order": 2, "weld_tolerance": 1e-7, "min_jacobian": 0.02})
+        jobs = json.loads(raw(self.d.url, "GET", "/v1/jobs?page_size=500")[2])["jobs"]
+        self.assertTrue(jobs)
+        for j in jobs:
+            self.assertEqual(schema_errors(j["options"], schema, "/options"), [], j["options"])
+        job = self.c.submit(SPHERE, {})
+        self.c.cancel(job["id"])
+        for k, v in job["options"].items():
+            self.assertEqual(schema["properties"][k]["default"], v, k)
 
     def test_metrics_text_format(self):
         self.submit_wait()
@@ -283,6 +382,38 @@ class ServerApi(unittest.TestCase):
         body = b"--XyZ\r\nContent-Disposition: form-data; name=\"other\"\r\n\r\nx\r\n--XyZ--\r\n"
         problem(self, self.post("/v1/jobs", body, "multipart/form-data; boundary=XyZ"), 400, "invalid-request")
 
+    def test_option_types(self):
+        # Query booleans: exactly the spec's enum 0/1/true/false.
+        for v in ("0", "1", "true", "false"):
+            self.assertEqual(self.post("/v1/jobs?binary=%s&tangent_junctions=%s" % (v, v), b"")[0], 422, v)
+        for v in ("yes", "no", "TRUE", "False", "", "2", "on"):
+            for key in ("binary", "tangent_junctions"):
+                p = problem(self, self.post("/v1/jobs?%s=%s" % (key, v), b""), 400, "invalid-options")
+                self.assertEqual([e["pointer"] for e in p["errors"]], ["/options/" + key], v)
+        # Multipart options are JSON: JSON numbers and booleans, never strings standing for them.
+        empty = b""  # refused after the options (422 invalid-mesh): options accepted
+        for opts in (b'{"order": 3, "binary": true, "tangent_junctions": false, "feature_angle": 40}',
+                     b'{"order": 3.0, "weld_tolerance": 0, "min_jacobian": 0.05, "long_edge_ratio": 2}',
+                     b'{"mode": "coarsen", "faces": 100, "redecimate": 2, "max_deviation": 0.01}'):
+            st, _, body = self.post("/v1/jobs", multipart(empty, opts), "multipart/form-data; boundary=XyZ")
+            self.assertEqual(st, 422, opts + b" " + body[:300])
+        for opts, keys in [(b'{"order": "3"}', ["order"]), (b'{"binary": "1"}', ["binary"]),
+                           (b'{"binary": 1}', ["binary"]), (b'{"tangent_junctions": "false"}', ["tangent_junctions"]),
+                           (b'{"feature_angle": "40", "weld_tolerance": "0"}', ["feature_angle", "weld_tolerance"]),
+                           (b'{"mode": "coarsen", "faces": "100"}', ["faces"]),
+                           (b'{"mode": "coarsen", "ratio": "0.5", "redecimate": "2"}', ["ratio", "redecimate"]),
+                           (b'{"order": true}', ["order"]), (b'{"format": 41}', ["format"])]:
+            p = problem(self, self.post("/v1/jobs", multipart(MESH_SPHERE, opts), "multipart/form-data; boundary=XyZ"),
+                        400, "invalid-options")
+            self.assertEqual(sorted(e["pointer"] for e in p["errors"]), ["/options/" + k for k in keys], opts)
+        # Query text and JSON together: each read by its own rules.
+        st, _, body = self.post("/v1/jobs?order=3&binary=1", multipart(empty, b'{"tangent_junctions": false}'),
+                                "multipart/form-data; boundary=XyZ")
+        self.assertEqual(st, 422, body[:300])
+        p = problem(self, self.post("/v1/jobs?binary=1", multipart(MESH_SPHERE, b'{"order": "3"}'),
+                                    "multipart/form-data; boundary=XyZ"), 400, "invalid-options")
+        self.assertEqual([e["pointer"] for e in p["errors"]], ["/options/order"])
+
     def test_bad_bodies(self):
         problem(self, self.post("/v1/jobs", os.urandom(5000)), 415, "unsupported-media-type")  # garbage
         problem(self, self.post("/v1/jobs", b""), 422, "invalid-mesh")
@@ -413,6 +544,25 @@ class ServerApi(unittest.TestCase):
         self.assertEqual(r.returncode, 1)
         self.assertIn("not-found", r.stderr)
 
+    def test_python_cli_local_errors(self):
+        # A missing mesh, an output in a missing directory or under a file: one `error:` line, exit 1.
+        cli = os.path.join(D.SOURCE_DIR, "clients", "python", "hocurve_client.py")
+        blocker = os.path.join(self.tmp, "a-file")
+        with open(blocker, "w") as f:
+            f.write("x")
+        done = self.submit_wait()
+        for args in (["submit", os.path.join(self.tmp, "missing.stl"), "--order", "2"],
+                     ["submit", SPHERE, "--order", "2", "--wait", "-o", os.path.join(self.tmp, "no", "dir", "o.msh")],
+                     ["submit", SPHERE, "--order", "2", "--wait", "-o", os.path.join(blocker, "o.msh")],
+                     ["download", done["id"], "-o", os.path.join(self.tmp, "no", "dir", "o.msh")],
+                     ["download", done["id"], "-o", os.path.join(blocker, "o.msh")]):
+            r = subprocess.run(["/usr/bin/python3", cli, "--url", self.d.url] + args, capture_output=True, text=True,
+                               timeout=60)
+            self.assertEqual(r.returncode, 1, args)
+            self.assertNotIn("Traceback", r.stderr, args)
+            self.assertRegex(r.stderr, r"^error: [^\n]+\n$", args)
+        self.assertFalse(os.path.exists(os.path.join(self.tmp, "no")))
+
     def test_curl_scripts(self):
         if not shutil.which("curl"):
             self.skipTest("curl not installed")
@@ -439,6 +589,25 @@ class ServerApi(unittest.TestCase):
                            env=env)
         self.assertNotEqual(r.returncode, 0)
         self.assertIn("not-found", r.stderr + r.stdout)
+
+
+class CurlProgress(unittest.TestCase):
+    def test_poll_prints_percent(self):
+        if not shutil.which("curl"):
+            self.skipTest("curl not installed")
+        tmp = tempfile.mkdtemp(prefix="hocurved-poll-")
+        # A worker whose progress fraction is 0.1 + 0.2 = 0.30000000000000004 for a while.
+        worker = D.fake_worker(tmp, "fake_progress.py", "import time\nprint('{\"stage\": \"fits\", \"fraction\": %r}' % "
+                               "(0.1 + 0.2), flush=True)\ntime.sleep(1.5)\n" + D.FAKE_OK)
+        with D.Daemon(BUILD_DIR, worker=worker) as d:
+            job = Client(d.url).submit(SPHERE, {"order": 2})
+            env = dict(os.environ, HOCURVE_URL=d.url)
+            r = subprocess.run(["bash", os.path.join(D.SOURCE_DIR, "clients", "curl", "poll.sh"), job["id"]],
+                               capture_output=True, text=True, timeout=60, env=env)
+        shutil.rmtree(tmp, ignore_errors=True)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("running 30%", r.stderr)
+        self.assertNotIn("0.3000", r.stderr)
 
 
 class ServerAuth(unittest.TestCase):

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """hocurved under stress and failure: 8 concurrent clients submitting 200 jobs, kill -9 during a job
-and restart, a crashing worker, cancel, timeout, graceful SIGTERM. Real daemon, loopback only.
+and restart, a crashing worker, cancel, timeout, graceful SIGTERM; non-UTF-8 text, abandoned and slow
+requests, leftovers of killed writers. Real daemon, loopback only.
 Usage: test_server_robust.py BUILD_DIR"""
 import concurrent.futures
 import json
@@ -241,6 +242,105 @@ class Robust(unittest.TestCase):
         self.assertTrue(gone, "expired job still listed")
         self.assertTrue(wait_for(lambda: not os.path.exists(os.path.join(d.data_dir, "jobs", j["id"])), 10))
         c.wait(c.submit(SPHERE, {"order": 2}, retries=0)["id"], timeout=30)  # space was freed
+
+    # --- Found by a black-box sweep (session 25) -------------------------------------------------
+
+    def raw(self, d, head, body=b"", wait=10):
+        """Sends one raw HTTP request; returns the status line and the rest of the first reply."""
+        host, port = d.url.split("//")[1].split(":")
+        with socket.create_connection((host, int(port)), timeout=wait) as s:
+            s.sendall(head + body)
+            reply = s.recv(65536)
+        return reply.split(b"\r\n", 1)[0], reply
+
+    def test_error_message_with_invalid_utf8_is_saved_and_not_rerun(self):
+        if not self.real:
+            self.skipTest("needs the real worker's message")
+        bad = os.path.join(self.tmp, "bad.stl")
+        with open(bad, "wb") as f:  # the refusal echoes the file's own bytes
+            f.write(b"solid \xff\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 \xffq\n"
+                    b"   vertex 0 1 0\n  endloop\n endfacet\nendsolid\n")
+        data = os.path.join(self.tmp, "data")
+        d = self.daemon(self.real, data_dir=data)
+        c = Client(d.url)
+        job = c.wait(c.submit(bad, {"order": 2})["id"], timeout=30)
+        self.assertEqual((job["status"], job["error"]["code"]), ("failed", "invalid-mesh"))
+        with open(os.path.join(data, "jobs", job["id"], "state.json"), "rb") as f:
+            self.assertEqual(json.loads(f.read().decode("utf-8"))["status"], "failed")  # was left "running"
+        d.stop()
+        again = Client(self.daemon(self.real, data_dir=data).url).get(job["id"])
+        self.assertEqual((again["status"], again["attempts"]), ("failed", 1))  # not run again
+
+    def test_invalid_utf8_key_and_file_name(self):
+        d = self.daemon(self.ok_worker)
+        with open(SPHERE, "rb") as f:
+            mesh = f.read()
+        head = (b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/octet-stream\r\n"
+                b"Idempotency-Key: k\xe9y\r\nContent-Length: %d\r\n\r\n" % len(mesh))
+        self.assertIn(b" 400 ", self.raw(d, head, mesh)[0])  # was 500, and the upload stayed on disk
+        part = (b"--XyZ\r\nContent-Disposition: form-data; name=\"mesh\"; filename=\"mesh-\xff.stl\"\r\n"
+                b"Content-Type: application/octet-stream\r\n\r\n" + mesh + b"\r\n--XyZ--\r\n")
+        head = (b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: multipart/form-data; boundary=XyZ\r\n"
+                b"Content-Length: %d\r\n\r\n" % len(part))
+        status, reply = self.raw(d, head, part)
+        self.assertIn(b" 202 ", status, reply[:300])
+        job = json.loads(reply.split(b"\r\n\r\n", 1)[1].decode("utf-8"))
+        self.assertEqual(Client(d.url).wait(job["id"], timeout=30)["status"], "succeeded")
+        self.assertEqual(os.listdir(os.path.join(d.data_dir, "uploads")), [])
+        self.assertEqual(os.listdir(os.path.join(d.data_dir, "jobs")), [job["id"]])
+
+    def test_sync_request_abandoned_cancels_its_job(self):
+        slow = D.slow_wrapper(self.tmp, self.ok_worker, 60)
+        d = self.daemon(slow, ["--workers", "1"])
+        with open(SPHERE, "rb") as f:
+            mesh = f.read()
+        host, port = d.url.split("//")[1].split(":")
+        s = socket.create_connection((host, int(port)), timeout=10)
+        s.sendall(b"POST /v1/curve?order=2 HTTP/1.1\r\nHost: x\r\nContent-Type: application/octet-stream\r\n"
+                  b"Content-Length: %d\r\n\r\n" % len(mesh) + mesh)
+        running = lambda: json.loads(urllib.request.urlopen(d.url + "/readyz", timeout=5).read())["running"]
+        self.assertTrue(wait_for(lambda: running() == 1, 10))
+        s.close()  # the client gives up
+        self.assertTrue(wait_for(lambda: running() == 0, 10), "the abandoned job kept its worker")
+        self.assertTrue(any(r.get("msg") == "sync job cancelled: the client hung up" for r in d.lines))
+
+    def test_slow_upload_is_cut_off(self):
+        d = self.daemon(self.ok_worker)
+        host, port = d.url.split("//")[1].split(":")
+        with socket.create_connection((host, int(port)), timeout=30) as s:
+            s.sendall(b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/octet-stream\r\n"
+                      b"Content-Length: 100000\r\n\r\n")
+            t0, reply = time.monotonic(), b""
+            s.settimeout(0.5)
+            while not reply and time.monotonic() - t0 < 30:
+                s.sendall(b"x" * 10)  # 20 bytes per second
+                try:
+                    reply = s.recv(4096)
+                except socket.timeout:
+                    pass
+            self.assertIn(b" 408 ", reply.split(b"\r\n")[0])
+            self.assertLess(time.monotonic() - t0, 25)
+        self.assertEqual(os.listdir(os.path.join(d.data_dir, "uploads")), [])
+
+    def test_readyz_needs_a_worker_program(self):
+        d = self.daemon(os.path.join(self.tmp, "no-such-worker"))
+        with self.assertRaises(urllib.error.HTTPError) as e:
+            urllib.request.urlopen(d.url + "/readyz", timeout=5)
+        self.assertEqual(e.exception.code, 503)
+        self.assertIn("cannot be executed", json.loads(e.exception.read())["detail"])
+
+    def test_temporary_files_and_server_paths(self):
+        data = os.path.join(self.tmp, "data")
+        d = self.daemon(self.ok_worker, data_dir=data)
+        c = Client(d.url)
+        job = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)
+        self.assertNotIn(data, json.dumps(c.stats(job["id"])))  # stats name files, not server paths
+        d.stop()
+        leftover = os.path.join(data, "jobs", job["id"], "result.part.msh.tmp.1f2e")  # a killed writer's
+        with open(leftover, "wb") as f:
+            f.write(b"x" * 1000)
+        self.daemon(self.ok_worker, data_dir=data)
+        self.assertFalse(os.path.exists(leftover))
 
 
 if __name__ == "__main__":
