@@ -509,6 +509,19 @@ void JobRunner::run_job(const std::string& id) {
   switch (outcome.code) {
     case 0: {
       bool ok = fs::exists(part, ec);
+      // The quota is checked on submission, when the result's size is unknown; a result that does
+      // not fit is dropped here, so that disk use stays within the quota and one result.
+      const std::uint64_t size = ok ? fs::file_size(part, ec) : 0;
+      const auto quota = (std::uint64_t)(config_.max_disk_mb * 1048576);
+      if (ok && store_.disk_bytes() + size > quota) {
+        fs::remove(part, ec);
+        finish("failed", make_problem(507, "quota-exceeded",
+                                      "the result (" + std::to_string(size / 1024) +
+                                          " KiB) does not fit in the data directory quota (" +
+                                          std::to_string((long long)(quota / 1024)) + " KiB, " +
+                                          std::to_string((long long)(store_.disk_bytes() / 1024)) + " KiB used)"));
+        return;
+      }
       if (ok) {
         fs::rename(part, result, ec);
         ok = !ec;

@@ -329,6 +329,17 @@ class Robust(unittest.TestCase):
         self.assertEqual(e.exception.code, 503)
         self.assertIn("cannot be executed", json.loads(e.exception.read())["detail"])
 
+    def test_result_over_quota_is_dropped(self):
+        big = D.fake_worker(self.tmp, "big.py", D.FAKE_OK.replace(
+            'open(out, \'w\').write("$MeshFormat\\n%s 0 8\\n$EndMeshFormat\\n" % version)',
+            'open(out, \'w\').write("x" * 400000)'))
+        d = self.daemon(big, ["--max-disk-mb", "0.3"])
+        c = Client(d.url)
+        job = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)  # 119 KB in, 400 KB out
+        self.assertEqual((job["status"], job["error"]["code"], job["error"]["status"]), ("failed", "quota-exceeded", 507))
+        self.assertEqual(sorted(os.listdir(os.path.join(d.data_dir, "jobs", job["id"]))),
+                         ["input.stl", "state.json", "stats.json", "worker.log"])
+
     def test_temporary_files_and_server_paths(self):
         data = os.path.join(self.tmp, "data")
         d = self.daemon(self.ok_worker, data_dir=data)
