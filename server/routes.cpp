@@ -415,6 +415,11 @@ void install_routes(httplib::Server& svr, App& app) {
       res.set_header("Connection", "close");
       return httplib::Server::HandlerResponse::Handled;
     }
+    if (req.get_header_value_count("Content-Length") > 1) {  // which one a proxy used is unknowable
+      send_problem(req, res, 400, "invalid-request", "more than one Content-Length header");
+      res.set_header("Connection", "close");
+      return httplib::Server::HandlerResponse::Handled;
+    }
     if (req.has_header("Content-Encoding")) {
       send_problem(req, res, 415, "unsupported-media-type", "Content-Encoding is not accepted; gzip the mesh file itself instead");
       res.set_header("Connection", "close");

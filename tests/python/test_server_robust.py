@@ -329,6 +329,13 @@ class Robust(unittest.TestCase):
         self.assertEqual(e.exception.code, 503)
         self.assertIn("cannot be executed", json.loads(e.exception.read())["detail"])
 
+    def test_two_content_lengths_refused(self):
+        d = self.daemon(self.ok_worker)
+        head = (b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/octet-stream\r\n"
+                b"Content-Length: 10\r\nContent-Length: 20\r\n\r\n")
+        self.assertIn(b" 400 ", self.raw(d, head, b"x" * 20)[0])  # was 202: a request smuggling risk
+        self.assertEqual(os.listdir(os.path.join(d.data_dir, "jobs")), [])
+
     def test_result_over_quota_is_dropped(self):
         big = D.fake_worker(self.tmp, "big.py", D.FAKE_OK.replace(
             'open(out, \'w\').write("$MeshFormat\\n%s 0 8\\n$EndMeshFormat\\n" % version)',
