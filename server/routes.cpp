@@ -415,6 +415,14 @@ void install_routes(httplib::Server& svr, App& app) {
       res.set_header("Connection", "close");
       return httplib::Server::HandlerResponse::Handled;
     }
+    {  // an encoded '/' would let one id name another resource: paths are matched as sent
+      const std::string raw_path = req.target.substr(0, req.target.find('?'));
+      if (raw_path.find("%2F") != std::string::npos || raw_path.find("%2f") != std::string::npos) {
+        send_problem(req, res, 404, "not-found", "no such resource (the path holds an encoded '/')");
+        res.set_header("Connection", "close");  // a body, if any, is not read
+        return httplib::Server::HandlerResponse::Handled;
+      }
+    }
     if (req.get_header_value_count("Content-Length") > 1) {  // which one a proxy used is unknowable
       send_problem(req, res, 400, "invalid-request", "more than one Content-Length header");
       res.set_header("Connection", "close");

@@ -329,12 +329,15 @@ class Robust(unittest.TestCase):
         self.assertEqual(e.exception.code, 503)
         self.assertIn("cannot be executed", json.loads(e.exception.read())["detail"])
 
-    def test_two_content_lengths_refused(self):
+    def test_two_content_lengths_and_encoded_slash_refused(self):
         d = self.daemon(self.ok_worker)
         head = (b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/octet-stream\r\n"
                 b"Content-Length: 10\r\nContent-Length: 20\r\n\r\n")
         self.assertIn(b" 400 ", self.raw(d, head, b"x" * 20)[0])  # was 202: a request smuggling risk
         self.assertEqual(os.listdir(os.path.join(d.data_dir, "jobs")), [])
+        job = Client(d.url).wait(Client(d.url).submit(SPHERE, {"order": 2})["id"], timeout=30)
+        head = b"GET /v1/jobs/%s%%2Fresult HTTP/1.1\r\nHost: x\r\n\r\n" % job["id"].encode()
+        self.assertIn(b" 404 ", self.raw(d, head)[0])  # was 200: an encoded '/' reached another route
 
     def test_result_over_quota_is_dropped(self):
         big = D.fake_worker(self.tmp, "big.py", D.FAKE_OK.replace(
