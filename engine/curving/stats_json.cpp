@@ -53,6 +53,7 @@ nlohmann::json stats_json(const CurveResult& r) {
                    {"repaired", V.repaired},
                    {"below_min_jacobian", V.below_floor_before},
                    {"min_jacobian_repaired", V.quality_repaired},
+                   {"needles_aligned", V.needles_aligned},
                    {"invalid_after", V.invalid_after},
                    {"degenerate_input", V.degenerate_input},
                    {"min_scaled_jacobian", V.min_scaled_jacobian},

@@ -5,6 +5,7 @@
 
 #include "engine/core/error.hpp"
 #include "engine/highorder/lagrange.hpp"
+#include "engine/highorder/needles.hpp"
 #include "engine/highorder/reference_nodes.hpp"
 
 #include <Eigen/LU>
@@ -507,7 +508,17 @@ ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt) {
   check_options(opt);
   ValidityOptions fixed = opt;  // invalid elements: fixed steps (see ValidityOptions::bisect)
   fixed.bisect = false;
+  long long needles = 0, invalid_first = -1;
+  if (opt.needle_short_edge > 0 && hm.order > 1) {
+    check_mesh_shape(hm, "repair_validity");
+    const ValidityReport first = check_validity(hm, opt);
+    invalid_first = first.invalid_after;
+    const std::vector<int> bad = needle_faces(hm, first.invalid_faces, opt.needle_short_edge);
+    if (!bad.empty()) needles = align_needles(hm, bad, opt.needle_short_edge);
+  }
   ValidityReport rep = repair_pass(hm, fixed);
+  rep.needles_aligned = needles;
+  if (invalid_first >= 0) rep.invalid_before = invalid_first;
   if (!(opt.quality_floor > opt.min_scaled_jacobian) || hm.order == 1) return rep;
   // Then the valid elements that come near folding (min J / J_straight below the floor) go the
   // same way toward straight until they clear it; the report keeps the validity threshold.
@@ -519,6 +530,7 @@ ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt) {
   out.repaired = rep.repaired;
   out.below_floor_before = rq.invalid_before - rq.degenerate_input;
   out.quality_repaired = rq.repaired;
+  out.needles_aligned = needles;
   return out;
 }
 
