@@ -282,7 +282,6 @@ void JobRunner::run_job(const std::string& id) {
       if (in) stats_json = nlohmann::json::parse(in, nullptr, false);
       if (stats_json.is_discarded()) stats_json = nullptr;
       strip_dir(stats_json, dir + "/");
-      store_.add_disk_bytes((std::int64_t)bytes);
     } else {
       fs::remove(part, ec);
     }
@@ -296,6 +295,7 @@ void JobRunner::run_job(const std::string& id) {
       j.stats = stats_json;
       j.result_bytes = bytes;
     });
+    store_.recount(id);  // the result, stats and log now count against the quota
     metrics_.job_finished(status, now - t0);
     nlohmann::json f = {{"job_id", id}, {"status", status}, {"duration_ms", (long long)((now - t0) * 1000)}};
     if (!error.is_null()) f["error_code"] = error.value("code", "");

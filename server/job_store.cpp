@@ -22,6 +22,15 @@ namespace fs = std::filesystem;
 namespace {
 nlohmann::json time_or_null(double t) { return t > 0 ? nlohmann::json(rfc3339(t)) : nlohmann::json(nullptr); }
 
+/// Bytes of the regular files in folder `dir`.
+std::uint64_t folder_bytes(const std::string& dir) {
+  std::error_code ec;
+  std::uint64_t bytes = 0;
+  for (auto& f : fs::directory_iterator(dir, ec))
+    if (f.is_regular_file(ec)) bytes += f.file_size(ec);
+  return bytes;
+}
+
 void fsync_path(const std::string& path, int flags) {
   int fd = ::open(path.c_str(), flags);
   if (fd >= 0) {
@@ -175,8 +184,8 @@ std::vector<Job> JobStore::load() {
     remove_leftovers(j.id);
     jobs_[j.id] = j;
     if (!j.idempotency_key.empty()) idempotency_[j.idempotency_key] = j.id;
-    for (auto& f : fs::directory_iterator(job_dir(j.id), ec))
-      if (f.is_regular_file()) disk_bytes_ += f.file_size();
+    counted_[j.id] = folder_bytes(job_dir(j.id));
+    disk_bytes_ += counted_[j.id];
   }
   return loaded;
 }
@@ -207,11 +216,23 @@ void JobStore::persist_version(const Job& job, std::uint64_t v) {
 
 void JobStore::insert(const Job& job) {
   persist(job);
+  const std::uint64_t bytes = folder_bytes(job_dir(job.id));
   std::lock_guard<std::mutex> lock(mutex_);
   jobs_[job.id] = job;
   versions_[job.id] = 1;
+  counted_[job.id] = bytes;
+  disk_bytes_ += bytes;
   if (!job.idempotency_key.empty()) idempotency_[job.idempotency_key] = job.id;
   changed_.notify_all();
+}
+
+void JobStore::recount(const std::string& id) {
+  const std::uint64_t bytes = folder_bytes(job_dir(id));
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = counted_.find(id);
+  if (it == counted_.end()) return;  // removed meanwhile
+  disk_bytes_ = disk_bytes_ - std::min(it->second, disk_bytes_) + bytes;
+  it->second = bytes;
 }
 
 std::optional<Job> JobStore::get(const std::string& id) const {
@@ -254,10 +275,8 @@ bool JobStore::remove(const std::string& id, std::string* error) {
     versions_.erase(id);
     // The space is freed in the same step as the job leaves the list: a client that sees it gone
     // and uploads again must not meet the quota still holding it.
-    std::uint64_t bytes = 0;
-    for (auto& f : fs::directory_iterator(job_dir(id), ec))
-      if (f.is_regular_file(ec)) bytes += f.file_size(ec);
-    disk_bytes_ -= std::min(bytes, disk_bytes_);
+    disk_bytes_ -= std::min(counted_[id], disk_bytes_);
+    counted_.erase(id);
     changed_.notify_all();
   }
   {
@@ -336,12 +355,6 @@ std::map<std::string, long long> JobStore::counts() const {
 std::uint64_t JobStore::disk_bytes() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return disk_bytes_;
-}
-
-void JobStore::add_disk_bytes(std::int64_t delta) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (delta < 0 && (std::uint64_t)(-delta) > disk_bytes_) disk_bytes_ = 0;
-  else disk_bytes_ += delta;
 }
 
 }  // namespace hocurve::server

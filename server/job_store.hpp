@@ -84,9 +84,11 @@ class JobStore {
   /// Counts by status.
   std::map<std::string, long long> counts() const;
 
-  /// Bytes held in the data directory by all jobs (inputs + results), tracked incrementally.
+  /// Bytes held in the data directory by all jobs: every file of their folders, as counted when
+  /// each job was added, loaded or last recounted.
   std::uint64_t disk_bytes() const;
-  void add_disk_bytes(std::int64_t delta);
+  /// Counts job id's folder again (after its worker wrote the result, stats and log).
+  void recount(const std::string& id);
 
  private:
   void persist(const Job& job) const;
@@ -102,6 +104,7 @@ class JobStore {
   mutable std::condition_variable changed_;
   std::map<std::string, Job> jobs_;
   std::map<std::string, std::string> idempotency_;  // key -> id
+  std::map<std::string, std::uint64_t> counted_;  // bytes of each job's folder in disk_bytes_ (under mutex_)
   std::uint64_t disk_bytes_ = 0;
   std::uint64_t id_counter_ = 0;
 };

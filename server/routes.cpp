@@ -79,6 +79,9 @@ constexpr const char* kProblemType = "application/problem+json";
 // Per-request data of the HTTP worker thread that runs the request (pre-routing -> logger).
 thread_local std::chrono::steady_clock::time_point t_request_start;
 thread_local std::string t_request_id;
+/// Set when the request's body was abandoned half read: its connection is shut down once the answer
+/// is written (the library would otherwise read on for as long as the client kept sending).
+thread_local int t_hangup_fd = -1;
 
 /// A MiB figure as people write it: "10240", "0.3".
 std::string format_mib(double mib) {
@@ -112,6 +115,20 @@ void send_problem(const Request& req, Response& res, int status, const std::stri
   if (status == 429 || status == 503) res.set_header("Retry-After", "2");
   if (status == 401) res.set_header("WWW-Authenticate", "Bearer realm=\"hocurved\"");
   res.set_content(json_text(p) + "\n", kProblemType);
+  if (t_hangup_fd >= 0) {  // the same body, sent by a provider whose release hangs up
+    const std::string body = std::move(res.body);
+    res.body.clear();
+    res.headers.erase("Content-Type");  // set_content_provider sets it again
+    const int fd = t_hangup_fd;
+    t_hangup_fd = -1;
+    res.set_content_provider(
+        body.size(), kProblemType,
+        [body](size_t offset, size_t length, httplib::DataSink& sink) {
+          sink.write(body.data() + offset, std::min(length, body.size() - offset));
+          return true;
+        },
+        [fd](bool) { ::shutdown(fd, SHUT_RDWR); });
+  }
 }
 
 void send_problem(const Request& req, Response& res, const ApiError& e) {
@@ -288,9 +305,14 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
   try {
     up = receive_upload(req, reader, cap, app.store.uploads_dir(), &reading);
   } catch (const ApiError&) {
-    // Refused before reading (413 on Content-Length, 415): drop a small body, else close.
-    if (!reading) discard_body(req, res, reader);
-    else res.set_header("Connection", "close");
+    // Refused before reading (413 on Content-Length, 415): drop a small body, else close: once
+    // reading, the rest of the body is not wanted (t_hangup_fd).
+    if (!reading) {
+      discard_body(req, res, reader);
+    } else {
+      res.set_header("Connection", "close");
+      t_hangup_fd = connection_socket(req);
+    }
     throw;
   }
   app.metrics.upload_bytes += up.bytes;
@@ -348,13 +370,11 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
     fs::remove_all(dir);
     throw ApiError(500, "internal", "cannot move the upload into the job folder");
   }
-  app.store.add_disk_bytes((std::int64_t)up.bytes);
   try {
     app.store.insert(job);
   } catch (const std::exception& e) {  // the state could not be saved: leave nothing behind
     std::error_code ec;
     fs::remove_all(dir, ec);
-    app.store.add_disk_bytes(-(std::int64_t)up.bytes);
     throw ApiError(503, "storage-unavailable", std::string("cannot save the job's state: ") + e.what());
   }
   if (!app.runner.enqueue(job.id, false, sync)) {
@@ -405,6 +425,7 @@ nlohmann::json load_openapi(const std::string& exe_dir) {
 void install_routes(httplib::Server& svr, App& app) {
   svr.set_pre_routing_handler([&app](const Request& req, Response& res) {
     t_request_start = std::chrono::steady_clock::now();
+    t_hangup_fd = -1;
     std::string rid = req.get_header_value("X-Request-Id");
     if (rid.empty() || rid.size() > 64 || rid.find_first_not_of("0123456789abcdefABCDEF-_") != std::string::npos)
       rid = new_request_id();

@@ -320,6 +320,16 @@ class Robust(unittest.TestCase):
                     pass
             self.assertIn(b" 408 ", reply.split(b"\r\n")[0])
             self.assertLess(time.monotonic() - t0, 25)
+            t1, closed = time.monotonic(), False
+            while not closed and time.monotonic() - t1 < 10:  # a client that keeps sending is let go
+                try:
+                    s.sendall(b"x" * 10)
+                    closed = s.recv(4096) == b""
+                except socket.timeout:
+                    pass
+                except OSError:
+                    closed = True
+            self.assertTrue(closed and time.monotonic() - t1 < 5, "the connection stayed open after the 408")
         self.assertEqual(os.listdir(os.path.join(d.data_dir, "uploads")), [])
 
     def test_readyz_needs_a_worker_program(self):
@@ -349,6 +359,30 @@ class Robust(unittest.TestCase):
         self.assertEqual((job["status"], job["error"]["code"], job["error"]["status"]), ("failed", "quota-exceeded", 507))
         self.assertEqual(sorted(os.listdir(os.path.join(d.data_dir, "jobs", job["id"]))),
                          ["input.stl", "state.json", "stats.json", "worker.log"])
+
+    def test_disk_bytes_match_the_files(self):
+        data = os.path.join(self.tmp, "data")
+        d = self.daemon(self.ok_worker, data_dir=data)
+        c = Client(d.url)
+        jobs = [c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)["id"] for _ in range(4)]
+
+        def metric(dd):
+            text = urllib.request.urlopen(dd.url + "/metrics", timeout=10).read().decode()
+            return int(float([l.split()[1] for l in text.splitlines() if l.startswith("hocurve_disk_bytes ")][0]))
+
+        def on_disk():
+            return sum(os.path.getsize(os.path.join(r, f)) for r, _, fs in os.walk(os.path.join(data, "jobs")) for f in fs)
+
+        self.assertEqual(metric(d), on_disk())  # counted inputs and results only: stats and logs were missed
+        for j in jobs[:2]:
+            c.cancel(j)
+        self.assertEqual(metric(d), on_disk())
+        d.stop()
+        d2 = self.daemon(self.ok_worker, data_dir=data)
+        self.assertEqual(metric(d2), on_disk())
+        for j in jobs[2:]:
+            Client(d2.url).cancel(j)
+        self.assertEqual((metric(d2), on_disk()), (0, 0))  # each deleted job left its state.json counted
 
     def test_temporary_files_and_server_paths(self):
         data = os.path.join(self.tmp, "data")
