@@ -5,6 +5,7 @@
 #include <tiny_obj_loader.h>
 
 #include <charconv>
+#include <cstdlib>
 #include <istream>
 #include <streambuf>
 
@@ -27,35 +28,6 @@ struct NoMaterials : tinyobj::MaterialReader {
   }
 };
 
-/// tinyobjloader's number parser can be one ulp off (it reads "1.75" as 1.7500000000000002).
-/// Re-reads the "v" lines with std::from_chars (correctly rounded); keeps tinyobjloader's values
-/// if the two disagree on the vertex count or a line does not parse.
-void reread_vertices(std::string_view b, std::vector<tinyobj::real_t>& xyz) {
-  std::vector<double> out;
-  out.reserve(xyz.size());
-  std::size_t p = 0;
-  while (p < b.size()) {
-    std::size_t e = b.find('\n', p);
-    if (e == std::string_view::npos) e = b.size();
-    std::size_t q = p;
-    while (q < e && (b[q] == ' ' || b[q] == '\t')) ++q;
-    if (q + 1 < e && b[q] == 'v' && (b[q + 1] == ' ' || b[q + 1] == '\t')) {
-      q += 2;
-      for (int d = 0; d < 3; ++d) {
-        while (q < e && (b[q] == ' ' || b[q] == '\t')) ++q;
-        double v = 0;
-        const char* first = b.data() + q + (q < e && b[q] == '+' ? 1 : 0);
-        auto [r, ec] = std::from_chars(first, b.data() + e, v);
-        if (ec != std::errc()) return;
-        out.push_back(v);
-        q = static_cast<std::size_t>(r - b.data());
-      }
-    }
-    p = e + 1;
-  }
-  if (out.size() == xyz.size()) std::copy(out.begin(), out.end(), xyz.begin());
-}
-
 bool blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
 
 /// Calls f(line number, first non-blank position, end of line) for each line of b.
@@ -70,6 +42,39 @@ void for_each_line(std::string_view b, F f) {
     f(++line, q, e);
     p = e + 1;
   }
+}
+
+/// tinyobjloader's number parser can be one ulp off (it reads "1.75" as 1.7500000000000002), and
+/// it reads a coordinate that is not a number, or a missing one, as 0. Re-reads the "v" lines with
+/// std::from_chars (correctly rounded) and refuses such lines; keeps tinyobjloader's values if the
+/// two disagree on the vertex count.
+void reread_vertices(std::string_view b, const std::string& name, std::vector<tinyobj::real_t>& xyz) {
+  std::vector<double> out;
+  out.reserve(xyz.size());
+  for_each_line(b, [&](long long line, std::size_t q, std::size_t e) {
+    if (!(q + 1 < e && b[q] == 'v' && blank(b[q + 1]))) return;
+    q += 2;
+    for (int d = 0; d < 3; ++d) {
+      while (q < e && blank(b[q])) ++q;
+      std::size_t t = q;
+      while (t < e && !blank(b[t])) ++t;
+      const std::string_view tok = b.substr(q, t - q);
+      double v = 0;
+      const char* first = tok.data() + (!tok.empty() && tok[0] == '+' ? 1 : 0);
+      auto [r, ec] = std::from_chars(first, tok.data() + tok.size(), v);
+      if (tok.empty() || (ec != std::errc() && ec != std::errc::result_out_of_range) || r != tok.data() + tok.size()) {
+        std::string shown;  // printable, and short
+        for (char c : tok.substr(0, 24)) shown += (c >= 0x20 && c < 0x7f) ? c : '?';
+        throw InputError(name + ": line " + std::to_string(line),
+                         tok.empty() ? "vertex has " + std::to_string(d) + " coordinates (x y z expected)"
+                                     : "vertex coordinate '" + shown + "' is not a number");
+      }
+      if (ec == std::errc::result_out_of_range) v = std::strtod(std::string(tok).c_str(), nullptr);  // +-inf or 0
+      out.push_back(v);  // non-finite values are refused with the vertex's number later
+      q = t;
+    }
+  });
+  if (out.size() == xyz.size()) std::copy(out.begin(), out.end(), xyz.begin());
 }
 
 /// tinyobjloader reads face indices into int without overflow checks (2^32 + 3 became vertex 3)
@@ -124,7 +129,7 @@ void read_obj(std::string_view bytes, const std::string& name, ReadResult& out) 
   // triangulate=false: we fan-split polygons ourselves, so the rule is ours and documented.
   const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &in, &no_mtl, false, false);
   if (!ok) throw InputError(name, "OBJ: " + first_line(err));
-  reread_vertices(bytes, attrib.vertices);
+  reread_vertices(bytes, name, attrib.vertices);
   Mesh& m = out.mesh;
   const std::size_t nv = attrib.vertices.size() / 3;
   if (nv > static_cast<std::size_t>(INT32_MAX)) throw InputError(name, "too many vertices");

@@ -97,6 +97,15 @@ TEST_CASE("out-of-range indices are located") {
   CHECK_THROWS_WITH_AS(validate_mesh(m), "face 3: vertex index 6 out of range [0, 6)", InputError);
 }
 
+TEST_CASE("OBJ coordinates that are not numbers are located") {
+  // tinyobjloader read each of these as 0: a wrong triangle, exit 0.
+  refused("v 0 0 0\nv 1 0 0\nv 0 1 \xff\nf 1 2 3\n", "c.obj", {"line 3", "'?' is not a number"});
+  refused("v 0 0 0\nv 1 0 0\nv 0 1 abc\nf 1 2 3\n", "c.obj", {"line 3", "'abc' is not a number"});
+  refused("v 0 0 0\nv 1 0 0\nv 0 1.5x 0\nf 1 2 3\n", "c.obj", {"line 3", "'1.5x' is not a number"});
+  refused("v 0 0 0\nv 1 0 0\nv 0 1\nf 1 2 3\n", "c.obj", {"line 3", "2 coordinates"});
+  refused("v 0 0 0\nv 1 0 0\nv 0 1 1e999\nf 1 2 3\n", "c.obj", {"vertex 3", "infinite"});
+}
+
 TEST_CASE("lying counts in PLY, OFF and STL") {
   const std::string head = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
                            "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
