@@ -1,5 +1,6 @@
 #include "server/job_options.hpp"
 
+#include "server/json_text.hpp"
 #include "server/problem.hpp"
 
 #include <algorithm>
@@ -38,7 +39,7 @@ std::string as_text(const nlohmann::json& v) {
 // The value as the error message shows it: text as it is, JSON as JSON ("3" with its quotes).
 std::string shown(const Value& x) {
   if (x.text && x.v.is_string()) return x.v.get<std::string>();
-  std::string s = x.v.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  std::string s = json_text(x.v);
   if (x.v.is_string()) s += " (a JSON string: the options part takes JSON numbers and booleans, not strings)";
   return s;
 }
