@@ -246,11 +246,19 @@ class Robust(unittest.TestCase):
     # --- Found by a black-box sweep (session 25) -------------------------------------------------
 
     def raw(self, d, head, body=b"", wait=10):
-        """Sends one raw HTTP request; returns the status line and the rest of the first reply."""
+        """Sends one raw HTTP request; returns the status line and the whole reply (its headers, and
+        the body as long as Content-Length says: they may come in several reads)."""
         host, port = d.url.split("//")[1].split(":")
         with socket.create_connection((host, int(port)), timeout=wait) as s:
             s.sendall(head + body)
-            reply = s.recv(65536)
+            reply = b""
+            while True:
+                chunk = s.recv(65536)
+                reply += chunk
+                top, _, rest = reply.partition(b"\r\n\r\n")
+                lengths = [int(l.split(b":")[1]) for l in top.split(b"\r\n") if l.lower().startswith(b"content-length:")]
+                if not chunk or (_ and len(rest) >= (lengths[0] if lengths else 0)):
+                    break
         return reply.split(b"\r\n", 1)[0], reply
 
     def test_error_message_with_invalid_utf8_is_saved_and_not_rerun(self):
