@@ -24,6 +24,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
+/// s without any occurrence of the job folder `dir` (ending in '/'): the worker names its files by
+/// path; clients see them relative to the job folder, and server paths stay private.
+std::string without_dir(std::string s, const std::string& dir) {
+  for (size_t at; (at = s.find(dir)) != std::string::npos;) s.erase(at, dir.size());
+  return s;
+}
+
 /// Last non-empty line of a (small) text file, at most 500 characters.
 std::string last_line(const std::string& path) {
   std::ifstream in(path);
@@ -32,21 +39,16 @@ std::string last_line(const std::string& path) {
     while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
     if (!line.empty()) last = line;
   }
-  // The worker names its files by path; clients see them relative to the job folder (server paths
-  // stay private): ".../jobs/<id>/input.stl: facet 7" -> "input.stl: facet 7".
-  const std::string dir = fs::path(path).parent_path().string() + "/";
-  for (size_t at; (at = last.find(dir)) != std::string::npos;) last.erase(at, dir.size());
+  // ".../jobs/<id>/input.stl: facet 7" -> "input.stl: facet 7".
+  last = without_dir(last, fs::path(path).parent_path().string() + "/");
   if (last.size() > 500) last = last.substr(0, 500) + "...";
   return last;
 }
 
-/// Removes the job folder `dir` (ending in '/') from every string in j: the worker's stats name
-/// its input and output by path, and server paths stay private.
+/// without_dir of every string in j (the worker's stats name its input and output by path).
 void strip_dir(nlohmann::json& j, const std::string& dir) {
   if (j.is_string()) {
-    std::string s = j.get<std::string>();
-    for (size_t at; (at = s.find(dir)) != std::string::npos;) s.erase(at, dir.size());
-    j = s;
+    j = without_dir(j.get<std::string>(), dir);
   } else if (j.is_structured()) {
     for (auto& v : j) strip_dir(v, dir);
   }

@@ -30,6 +30,9 @@ struct NoMaterials : tinyobj::MaterialReader {
 
 bool blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
 
+/// True when the line of b from q (its first non-blank) to e starts with keyword c ("v", "f").
+bool keyword(std::string_view b, std::size_t q, std::size_t e, char c) { return q + 1 < e && b[q] == c && blank(b[q + 1]); }
+
 /// Calls f(line number, first non-blank position, end of line) for each line of b.
 template <class F>
 void for_each_line(std::string_view b, F f) {
@@ -52,7 +55,7 @@ void reread_vertices(std::string_view b, const std::string& name, std::vector<ti
   std::vector<double> out;
   out.reserve(xyz.size());
   for_each_line(b, [&](long long line, std::size_t q, std::size_t e) {
-    if (!(q + 1 < e && b[q] == 'v' && blank(b[q + 1]))) return;
+    if (!keyword(b, q, e, 'v')) return;
     q += 2;
     for (int d = 0; d < 3; ++d) {
       while (q < e && blank(b[q])) ++q;
@@ -82,11 +85,10 @@ void reread_vertices(std::string_view b, const std::string& name, std::vector<ti
 /// at most the file's vertex count, negatives at most the vertices read so far.
 void check_face_indices(std::string_view b, const std::string& name) {
   long long total = 0, vertices = 0;
-  auto is = [&](std::size_t q, std::size_t e, char c) { return q + 1 < e && b[q] == c && blank(b[q + 1]); };
-  for_each_line(b, [&](long long, std::size_t q, std::size_t e) { total += is(q, e, 'v'); });
+  for_each_line(b, [&](long long, std::size_t q, std::size_t e) { total += keyword(b, q, e, 'v'); });
   for_each_line(b, [&](long long line, std::size_t q, std::size_t e) {
-    vertices += is(q, e, 'v');
-    if (is(q, e, 'f')) {
+    vertices += keyword(b, q, e, 'v');
+    if (keyword(b, q, e, 'f')) {
       for (q += 2;;) {
         while (q < e && blank(b[q])) ++q;
         if (q >= e || b[q] == '#') break;
