@@ -1,6 +1,7 @@
 // hocurved: the HTTP/JSON job service. Binds, recovers the job store, serves until SIGTERM/SIGINT,
 // then drains (not ready, running jobs get a grace period, the rest stay queued on disk) and stops.
 #include "server/app.hpp"
+#include "server/http_server.hpp"
 #include "server/log.hpp"
 
 #include <httplib.h>
@@ -46,7 +47,7 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  httplib::Server svr;
+  HttpServer svr;  // keeps pipelined requests and serves half-closed clients (http_server.hpp)
   // SO_REUSEADDR only: the library's default SO_REUSEPORT let a second daemon bind the same port
   // and take half the connections.
   svr.set_socket_options([](socket_t sock) {

@@ -2,6 +2,7 @@
 // worker processes (job_runner.cpp), never on an HTTP thread.
 #include "server/app.hpp"
 #include "server/format_sniff.hpp"
+#include "server/http_server.hpp"
 #include "server/job_options.hpp"
 #include "server/json_text.hpp"
 #include "server/log.hpp"
@@ -25,9 +26,6 @@
 #include <set>
 #include <sstream>
 #include <fcntl.h>
-#include <netdb.h>
-#include <poll.h>
-#include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -46,30 +44,6 @@ using httplib::Response;
 
 namespace {
 
-/// The socket of req's connection, found by its peer address (cpp-httplib 0.11 does not hand it
-/// to handlers); -1 if not found.
-int connection_socket(const Request& req) {
-  std::error_code ec;
-  for (auto& entry : fs::directory_iterator("/proc/self/fd", ec)) {
-    const int fd = std::atoi(entry.path().filename().c_str());
-    sockaddr_storage addr{};
-    socklen_t len = sizeof addr;
-    if (::getpeername(fd, (sockaddr*)&addr, &len) != 0) continue;
-    char host[NI_MAXHOST], port[NI_MAXSERV];
-    if (::getnameinfo((sockaddr*)&addr, len, host, sizeof host, port, sizeof port, NI_NUMERICHOST | NI_NUMERICSERV) != 0)
-      continue;
-    if (req.remote_addr == host && std::to_string(req.remote_port) == port) return fd;
-  }
-  return -1;
-}
-
-/// True when the client at the other end of `fd` has closed or reset the connection.
-bool client_gone(int fd) {
-  if (fd < 0) return false;
-  pollfd p = {fd, POLLRDHUP, 0};
-  return ::poll(&p, 1, 0) > 0 && (p.revents & (POLLRDHUP | POLLHUP | POLLERR));
-}
-
 /// /readyz says not ready below this much free disk in the data directory.
 constexpr std::uintmax_t kMinFreeBytes = 16u << 20;
 
@@ -79,9 +53,6 @@ constexpr const char* kProblemType = "application/problem+json";
 // Per-request data of the HTTP worker thread that runs the request (pre-routing -> logger).
 thread_local std::chrono::steady_clock::time_point t_request_start;
 thread_local std::string t_request_id;
-/// Set when the request's body was abandoned half read: its connection is shut down once the answer
-/// is written (the library would otherwise read on for as long as the client kept sending).
-thread_local int t_hangup_fd = -1;
 
 /// A MiB figure as people write it: "10240", "0.3".
 std::string format_mib(double mib) {
@@ -115,20 +86,6 @@ void send_problem(const Request& req, Response& res, int status, const std::stri
   if (status == 429 || status == 503) res.set_header("Retry-After", "2");
   if (status == 401) res.set_header("WWW-Authenticate", "Bearer realm=\"hocurved\"");
   res.set_content(json_text(p) + "\n", kProblemType);
-  if (t_hangup_fd >= 0) {  // the same body, sent by a provider whose release hangs up
-    const std::string body = std::move(res.body);
-    res.body.clear();
-    res.headers.erase("Content-Type");  // set_content_provider sets it again
-    const int fd = t_hangup_fd;
-    t_hangup_fd = -1;
-    res.set_content_provider(
-        body.size(), kProblemType,
-        [body](size_t offset, size_t length, httplib::DataSink& sink) {
-          sink.write(body.data() + offset, std::min(length, body.size() - offset));
-          return true;
-        },
-        [fd](bool) { ::shutdown(fd, SHUT_RDWR); });
-  }
 }
 
 void send_problem(const Request& req, Response& res, const ApiError& e) {
@@ -306,13 +263,9 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
     up = receive_upload(req, reader, cap, app.store.uploads_dir(), &reading);
   } catch (const ApiError&) {
     // Refused before reading (413 on Content-Length, 415): drop a small body, else close: once
-    // reading, the rest of the body is not wanted (t_hangup_fd).
-    if (!reading) {
-      discard_body(req, res, reader);
-    } else {
-      res.set_header("Connection", "close");
-      t_hangup_fd = connection_socket(req);
-    }
+    // reading, the rest of the body is not wanted (the connection ends with the answer).
+    if (!reading) discard_body(req, res, reader);
+    else res.set_header("Connection", "close");
     throw;
   }
   app.metrics.upload_bytes += up.bytes;
@@ -425,7 +378,6 @@ nlohmann::json load_openapi(const std::string& exe_dir) {
 void install_routes(httplib::Server& svr, App& app) {
   svr.set_pre_routing_handler([&app](const Request& req, Response& res) {
     t_request_start = std::chrono::steady_clock::now();
-    t_hangup_fd = -1;
     std::string rid = req.get_header_value("X-Request-Id");
     if (rid.empty() || rid.size() > 64 || rid.find_first_not_of("0123456789abcdefABCDEF-_") != std::string::npos)
       rid = new_request_id();
@@ -513,11 +465,24 @@ void install_routes(httplib::Server& svr, App& app) {
         send_problem(req, res, res.status, res.status >= 500 ? "internal" : "invalid-request",
                      "request could not be processed (HTTP " + std::to_string(res.status) + ")");
     }
+    // The library refused the request while reading it: where it stopped (mid header, mid body)
+    // is no place to read the next request from.
+    if (res.status != 404 && res.status != 405 && res.status != 416) res.set_header("Connection", "close");
     return httplib::Server::HandlerResponse::Handled;
   }));
 
+  svr.set_post_routing_handler([](const Request&, Response& res) {
+    // An answer that says so ends its connection (the library would read on: the rest of a refused
+    // body, or requests pipelined behind it that the client will send again).
+    if (res.get_header_value("Connection") == "close") {
+      res.headers.erase("Keep-Alive");
+      close_connection_after_response();
+    }
+  });
+
   svr.set_exception_handler([](const Request& req, Response& res, std::exception_ptr) {
     send_problem(req, res, 500, "internal", "internal error; quote request_id " + t_request_id);
+    res.set_header("Connection", "close");  // the body may be unread
   });
 
   svr.set_logger([&app](const Request& req, const Response& res) {
@@ -601,14 +566,14 @@ void install_routes(httplib::Server& svr, App& app) {
   svr.Post("/v1/curve", guarded_reader([&app](const Request& req, Response& res, const ContentReader& reader) {
              Created c = create_job(app, req, res, reader, true);
              // A client that hangs up no longer wants the result: its job is cancelled, so that
-             // abandoned requests do not keep the workers busy. (A client that only shuts down its
-             // sending side looks the same; HTTP/1.1 clients do not.) Not a replay's: that job is
-             // another request's.
-             const int fd = c.replay ? -1 : connection_socket(req);
+             // abandoned requests do not keep the workers busy. One that only shut down its
+             // sending side still waits for the answer (PeerWatch tells them apart). Not a
+             // replay's: that job is another request's.
+             PeerWatch peer(c.replay ? -1 : current_connection_socket(), req.version == "HTTP/1.1");
              const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(app.config.job_timeout + 30);
              auto done = app.store.wait_terminal(c.job.id, 0.5);
              while (done && !done->terminal() && std::chrono::steady_clock::now() < deadline) {
-               if (client_gone(fd)) {
+               if (peer.gone()) {
                  app.runner.cancel(c.job.id);
                  done = app.store.wait_terminal(c.job.id, 5.0);
                  log_info("sync job cancelled: the client hung up", {{"job_id", c.job.id}, {"request_id", t_request_id}});

@@ -312,6 +312,32 @@ class Robust(unittest.TestCase):
         self.assertTrue(wait_for(lambda: running() == 0, 10), "the abandoned job kept its worker")
         self.assertTrue(any(r.get("msg") == "sync job cancelled: the client hung up" for r in d.lines))
 
+    def test_sync_request_half_closed_gets_its_result(self):
+        # shutdown(SHUT_WR) after the whole request is legal: the client still reads the answer.
+        # The daemon took the FIN for a hang-up and cancelled the job (and the library would not
+        # have written to such a client anyway). An interim 100 Continue may come first: the probe
+        # that tells a half-close from a close.
+        d = self.daemon(D.slow_wrapper(self.tmp, self.ok_worker, 1), ["--workers", "1"])
+        with open(SPHERE, "rb") as f:
+            mesh = f.read()
+        host, port = d.url.split("//")[1].split(":")
+        with socket.create_connection((host, int(port)), timeout=20) as s:
+            s.sendall(b"POST /v1/curve?order=2 HTTP/1.1\r\nHost: x\r\nContent-Type: application/octet-stream\r\n"
+                      b"Content-Length: %d\r\n\r\n" % len(mesh) + mesh)
+            s.shutdown(socket.SHUT_WR)
+            reply = b""
+            while True:  # the daemon closes once the answer is written (the client sends no more)
+                chunk = s.recv(65536)
+                if not chunk:
+                    break
+                reply += chunk
+        while reply.startswith(b"HTTP/1.1 100 "):
+            reply = reply.split(b"\r\n\r\n", 1)[1]
+        head, _, body = reply.partition(b"\r\n\r\n")
+        self.assertTrue(head.startswith(b"HTTP/1.1 200 "), reply[:300])
+        self.assertTrue(body.startswith(b"$MeshFormat"), body[:100])
+        self.assertFalse(any(r.get("msg") == "sync job cancelled: the client hung up" for r in d.lines))
+
     def test_slow_upload_is_cut_off(self):
         d = self.daemon(self.ok_worker)
         host, port = d.url.split("//")[1].split(":")
