@@ -1,6 +1,7 @@
 // HTTP routes of hocurved. Handlers only validate, store, enqueue or read state: geometry runs in
 // worker processes (job_runner.cpp), never on an HTTP thread.
 #include "server/app.hpp"
+#include "server/byte_range.hpp"
 #include "server/format_sniff.hpp"
 #include "server/http_server.hpp"
 #include "server/job_options.hpp"
@@ -17,6 +18,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -25,6 +27,7 @@
 #include <regex>
 #include <set>
 #include <sstream>
+#include <utility>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -53,6 +56,8 @@ constexpr const char* kProblemType = "application/problem+json";
 // Per-request data of the HTTP worker thread that runs the request (pre-routing -> logger).
 thread_local std::chrono::steady_clock::time_point t_request_start;
 thread_local std::string t_request_id;
+/// Set by stream_file: this answer honours Range (every other one says `Accept-Ranges: none`).
+thread_local bool t_accept_ranges = false;
 
 /// A MiB figure as people write it: "10240", "0.3".
 std::string format_mib(double mib) {
@@ -165,20 +170,69 @@ httplib::Server::HandlerWithContentReader guarded_reader(F f) {
   };
 }
 
-/// Streams a file from an open descriptor (the file may be unlinked meanwhile).
-void stream_file(App& app, Response& res, const std::string& path, const std::string& download_name) {
+/// An HTTP-date (RFC 9110 5.6.7) of a file time.
+std::string http_date(time_t t) {
+  std::tm tm{};
+  ::gmtime_r(&t, &tm);
+  char buf[40];
+  std::strftime(buf, sizeof buf, "%a, %d %b %Y %H:%M:%S GMT", &tm);
+  return buf;
+}
+
+/// Streams a file from an open descriptor (the file may be unlinked meanwhile), 200. With
+/// `ranges` (GET/HEAD of a stored result), a single byte Range is honoured (206, or 416 when it
+/// lies past the end), unless an If-Range names another version (ETag or Last-Modified).
+void stream_file(App& app, const Request& req, Response& res, const std::string& path, const std::string& download_name,
+                 bool ranges) {
   int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw ApiError(404, "not-found", "result file is gone (expired or deleted)");
   struct stat st {};
   ::fstat(fd, &st);
-  auto shared_fd = std::make_shared<int>(fd);
+  const std::uint64_t size = (std::uint64_t)st.st_size;
+  ByteRange range;
+  std::string etag, modified;
+  if (ranges) {
+    char tag[80];
+    std::snprintf(tag, sizeof tag, "\"%llx-%llx-%llx\"", (unsigned long long)st.st_ino, (unsigned long long)size,
+                  (unsigned long long)st.st_mtim.tv_sec * 1000000000ull + (unsigned long long)st.st_mtim.tv_nsec);
+    etag = tag;
+    modified = http_date(st.st_mtim.tv_sec);
+    const std::string if_range = req.get_header_value("If-Range");
+    if (req.method == "GET" && (if_range.empty() || if_range == etag || if_range == modified))
+      range = parse_byte_range(req.get_header_value("Range"), size);
+    if (range.kind == ByteRange::kUnsatisfiable) {
+      ::close(fd);
+      res.set_header("Content-Range", "bytes */" + std::to_string(size));
+      throw ApiError(416, "range-not-satisfiable",
+                     "the range '" + req.get_header_value("Range").substr(0, 64) + "' lies outside the " +
+                         std::to_string(size) + " bytes of the result");
+    }
+    t_accept_ranges = true;
+    res.set_header("Accept-Ranges", "bytes");
+    res.set_header("ETag", etag);
+    res.set_header("Last-Modified", modified);
+  }
   res.set_header("Content-Disposition", "attachment; filename=\"" + download_name + "\"");
+  res.status = 200;
+  std::uint64_t first = 0, length = size;
+  if (range.kind == ByteRange::kPart) {
+    res.status = 206;
+    res.set_header("Content-Range", content_range(range, size));
+    first = range.first;
+    length = range.length;
+  }
+  if (length == 0) {  // an empty file: the library cannot provide zero bytes
+    ::close(fd);
+    res.set_content("", "application/octet-stream");
+    return;
+  }
+  auto shared_fd = std::make_shared<int>(fd);
   res.set_content_provider(
-      (size_t)st.st_size, "application/octet-stream",
-      [shared_fd, &app](size_t offset, size_t length, httplib::DataSink& sink) {
+      (size_t)length, "application/octet-stream",
+      [shared_fd, &app, first](size_t offset, size_t length, httplib::DataSink& sink) {
         char buf[256 * 1024];
         size_t want = std::min(length, sizeof buf);
-        ssize_t n = ::pread(*shared_fd, buf, want, (off_t)offset);
+        ssize_t n = ::pread(*shared_fd, buf, want, (off_t)(first + offset));
         if (n <= 0 || !sink.is_writable()) return false;
         app.metrics.download_bytes += (std::uint64_t)n;
         return sink.write(buf, (size_t)n);
@@ -406,9 +460,10 @@ void install_routes(httplib::Server& svr, App& app) {
       res.set_header("Connection", "close");
       return httplib::Server::HandlerResponse::Handled;
     }
-    // Range is ignored (RFC 9110 allows it): every answer is the whole representation, 200. The
-    // library would otherwise apply it to any response, JSON and problems included.
+    // Range is applied by stream_file to results only (the library would apply it to any answer,
+    // JSON and problems included, and 0.11 checks no bounds for streamed ones).
     const_cast<Request&>(req).ranges.clear();
+    t_accept_ranges = false;
     const bool has_body = req.has_header("Content-Length") || req.has_header("Transfer-Encoding");
     const std::string allow = allowed_methods(route_of(req));
     if (!allow.empty() && req.method == "OPTIONS") {
@@ -472,6 +527,11 @@ void install_routes(httplib::Server& svr, App& app) {
   }));
 
   svr.set_post_routing_handler([](const Request&, Response& res) {
+    // The library says "Accept-Ranges: bytes" on every HEAD answer; only results honour Range.
+    if (!std::exchange(t_accept_ranges, false) && res.has_header("Accept-Ranges")) {
+      res.headers.erase("Accept-Ranges");
+      res.set_header("Accept-Ranges", "none");
+    }
     // An answer that says so ends its connection (the library would read on: the rest of a refused
     // body, or requests pipelined behind it that the client will send again).
     if (res.get_header_value("Connection") == "close") {
@@ -605,8 +665,7 @@ void install_routes(httplib::Server& svr, App& app) {
                std::string s = json_text(done->stats);
                if (s.size() < 4000) res.set_header("X-Hocurve-Stats", s);
              }
-             stream_file(app, res, app.store.job_dir(done->id) + "/result.msh", "curved.msh");
-             res.status = 200;
+             stream_file(app, req, res, app.store.job_dir(done->id) + "/result.msh", "curved.msh", false);
            }));
 
   svr.Get("/v1/jobs", guarded([&app](const Request& req, Response& res) {
@@ -654,8 +713,7 @@ void install_routes(httplib::Server& svr, App& app) {
   svr.Get(std::string("/v1/jobs/") + kIdPattern + "/result", guarded([&app](const Request& req, Response& res) {
             Job job = require_job(app, req);
             require_succeeded(job, "result");
-            stream_file(app, res, app.store.job_dir(job.id) + "/result.msh", job.id + ".msh");
-            res.status = 200;
+            stream_file(app, req, res, app.store.job_dir(job.id) + "/result.msh", job.id + ".msh", true);
           }));
   svr.Get(std::string("/v1/jobs/") + kIdPattern + "/stats", guarded([&app](const Request& req, Response& res) {
             Job job = require_job(app, req);

@@ -1,5 +1,6 @@
 // Unit tests of hocurved's pieces that need no HTTP: option validation, worker command line, format
 // sniffing, the Prometheus text, and the durable job store (atomic state, reload, pagination).
+#include "server/byte_range.hpp"
 #include "server/format_sniff.hpp"
 #include "server/job_options.hpp"
 #include "server/job_store.hpp"
@@ -266,6 +267,27 @@ TEST_CASE("job store: atomic state, reload, pagination, idempotency keys") {
   CHECK(!store.find_idempotent("k3"));
   CHECK(!fs::exists(store.job_dir(ids[3])));
   fs::remove_all(dir);
+}
+
+TEST_CASE("byte ranges: one range served, clipped; past the end unsatisfiable; the rest ignored") {
+  auto part = [](const std::string& h, std::uint64_t size) {
+    ByteRange r = parse_byte_range(h, size);
+    return r.kind == ByteRange::kPart ? content_range(r, size) : r.kind == ByteRange::kWhole ? "whole" : "416";
+  };
+  CHECK(part("bytes=0-9", 100) == "bytes 0-9/100");
+  CHECK(part("bytes=90-", 100) == "bytes 90-99/100");
+  CHECK(part("bytes=99999999-", 100) == "416");  // "first-" runs to the end, wherever that is
+  CHECK(part("bytes=-5", 100) == "bytes 95-99/100");
+  CHECK(part("bytes=-500", 100) == "bytes 0-99/100");
+  CHECK(part("bytes=50-5000", 100) == "bytes 50-99/100");
+  CHECK(part(" BYTES = 7-7 ", 100) == "bytes 7-7/100");
+  CHECK(part("bytes=100-", 100) == "416");
+  CHECK(part("bytes=100-200", 100) == "416");
+  CHECK(part("bytes=-0", 100) == "416");
+  CHECK(part("bytes=0-", 0) == "416");
+  for (const char* ignored : {"", "bytes=0-1,5-6", "items=0-5", "bytes=abc", "bytes=9-2", "bytes=-", "bytes=1-2-3",
+                              "bytes=0x10-", "bytes=1234567890123456789-"})
+    CHECK_MESSAGE(part(ignored, 100) == "whole", ignored);
 }
 
 TEST_CASE("problem objects carry type URI, code, title, status and extensions") {
