@@ -237,12 +237,13 @@ void JobRunner::worker_loop() {
 }
 
 void JobRunner::janitor_loop() {
-  // Deletes jobs whose retention ended. Wakes up at least every second so shutdown stays prompt.
+  // Deletes jobs whose retention ended and checks the data directory's lock. Wakes up at least every second so shutdown stays prompt.
   std::unique_lock<std::mutex> lock(mutex_);
   while (!stopped_) {
     cv_.wait_for(lock, std::chrono::seconds(1));
     if (stopped_) break;
     lock.unlock();
+    store_.check_storage();  // takes the data directory's lock again if it was deleted
     double now = now_seconds();
     for (const Job& j : store_.all())
       if (j.terminal() && j.expires > 0 && j.expires <= now) {

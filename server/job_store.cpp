@@ -14,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace hocurve::server {
@@ -124,7 +125,7 @@ JobStore::JobStore(std::string data_dir) : data_dir_(std::move(data_dir)) {
   fs::create_directories(uploads_dir());
   // One daemon per data directory: a second one would rerun the first one's jobs and delete its
   // uploads. The lock goes with the process (also on kill -9).
-  const std::string lock = (fs::path(data_dir_) / "lock").string();
+  const std::string lock = lock_path();
   lock_fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (lock_fd_ < 0) throw std::runtime_error("cannot open " + lock + ": " + std::strerror(errno));
   if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
@@ -138,6 +139,51 @@ JobStore::JobStore(std::string data_dir) : data_dir_(std::move(data_dir)) {
     lock_fd_ = -1;
     throw std::runtime_error("another hocurved is using this data directory (" + lock + " is locked)");
   }
+  lock_held_ = true;
+}
+
+std::string JobStore::lock_path() const { return (fs::path(data_dir_) / "lock").string(); }
+
+std::string JobStore::check_storage() {
+  std::lock_guard<std::mutex> guard(storage_mutex_);
+  std::string problem;
+  std::error_code ec;
+  struct stat held {}, now {};
+  if (!fs::is_directory(data_dir_, ec))
+    problem = "the data directory " + data_dir_ + " is gone";
+  else if (lock_held_ && !(::fstat(lock_fd_, &held) == 0 && ::stat(lock_path().c_str(), &now) == 0 &&
+                           held.st_dev == now.st_dev && held.st_ino == now.st_ino))
+    problem = take_lock_again();
+  if (problem != storage_problem_) {
+    if (problem.empty()) log_info("the data directory is usable again", {{"data_dir", data_dir_}});
+    else log_warn("the data directory is unusable", {{"data_dir", data_dir_}, {"why", problem}});
+    storage_problem_ = problem;
+  }
+  return problem;
+}
+
+std::string JobStore::take_lock_again() {
+  const std::string lock = lock_path();
+  const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return "the lock file " + lock + " was removed and cannot be made again: " + std::strerror(errno);
+  struct stat mine {}, now {};
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    ::close(fd);
+    return err == EWOULDBLOCK ? "the lock file " + lock + " was replaced and another process (a second hocurved?) holds it"
+                              : "cannot lock " + lock + " again: " + std::strerror(err);
+  }
+  if (::fstat(fd, &mine) != 0 || ::stat(lock.c_str(), &now) != 0 || mine.st_ino != now.st_ino || mine.st_dev != now.st_dev) {
+    ::close(fd);  // replaced again meanwhile: the next check tries anew
+    return "the lock file " + lock + " keeps changing";
+  }
+  ::close(lock_fd_);
+  lock_fd_ = fd;
+  std::error_code ec;
+  fs::create_directories(fs::path(data_dir_) / "jobs", ec);
+  fs::create_directories(uploads_dir(), ec);
+  log_warn("the data directory's lock file was gone: taken again", {{"lock", lock}});
+  return "";
 }
 
 JobStore::~JobStore() {

@@ -51,6 +51,13 @@ class JobStore {
   JobStore(const JobStore&) = delete;
   JobStore& operator=(const JobStore&) = delete;
 
+  /// Checks that the data directory is still there and its lock file is still the one this store
+  /// holds: deleting the directory (or the lock file) while the daemon runs would let a second
+  /// daemon in. A lost lock is taken again on a new lock file (the job and upload folders are made
+  /// again) unless another process holds that one. Returns "" when the store is usable, else why
+  /// not (for a 503 storage-unavailable). Logs each change. Cheap (two stat calls) when all is well.
+  std::string check_storage();
+
   /// Loads every jobs/<id>/state.json; removes folders without one (interrupted uploads).
   /// Returns the loaded jobs, oldest first.
   std::vector<Job> load();
@@ -96,7 +103,12 @@ class JobStore {
   /// so that readers never wait for an fsync.
   void persist_version(const Job& job, std::uint64_t v);
   std::string data_dir_;
-  int lock_fd_ = -1;  ///< flock'ed data_dir/lock
+  std::string lock_path() const;
+  std::string take_lock_again();
+  int lock_fd_ = -1;  ///< flock'ed data_dir/lock (under storage_mutex_ once serving)
+  bool lock_held_ = false;  ///< false on a file system without locks: nothing to check
+  std::mutex storage_mutex_;
+  std::string storage_problem_;  ///< the last check_storage answer (under storage_mutex_)
   mutable std::mutex mutex_;
   std::mutex persist_mutex_;
   std::map<std::string, std::uint64_t> versions_;  // under mutex_

@@ -252,6 +252,10 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
     discard_body(req, res, reader);
     throw ApiError(503, "draining", "server is shutting down; retry on another instance or later");
   }
+  if (const std::string why = app.store.check_storage(); !why.empty()) {
+    discard_body(req, res, reader);
+    throw ApiError(503, "storage-unavailable", why);
+  }
   // Cheap refusals first, before reading the body.
   if (!sync && (int)app.runner.queue_depth() >= app.config.max_queue) {
     discard_body(req, res, reader);
@@ -560,6 +564,8 @@ void install_routes(httplib::Server& svr, App& app) {
   svr.Get("/healthz", [](const Request&, Response& res) { send_json(res, 200, {{"status", "ok"}}); });
   svr.Get("/readyz", [&app](const Request& req, Response& res) {
     if (app.draining) return send_problem(req, res, 503, "draining", "server is shutting down");
+    if (const std::string why = app.store.check_storage(); !why.empty())
+      return send_problem(req, res, 503, "storage-unavailable", why);
     if (::access(app.store.uploads_dir().c_str(), W_OK) != 0)
       return send_problem(req, res, 503, "storage-unavailable",
                           std::string("the data directory is not writable: ") + std::strerror(errno));

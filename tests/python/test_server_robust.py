@@ -4,11 +4,13 @@ and restart, a crashing worker, cancel, timeout, graceful SIGTERM; non-UTF-8 tex
 requests, leftovers of killed writers. Real daemon, loopback only.
 Usage: test_server_robust.py BUILD_DIR"""
 import concurrent.futures
+import fcntl
 import json
 import os
 import shutil
 import signal
 import socket
+import subprocess
 import sys
 import tempfile
 import time
@@ -337,6 +339,41 @@ class Robust(unittest.TestCase):
         self.assertTrue(head.startswith(b"HTTP/1.1 200 "), reply[:300])
         self.assertTrue(body.startswith(b"$MeshFormat"), body[:100])
         self.assertFalse(any(r.get("msg") == "sync job cancelled: the client hung up" for r in d.lines))
+
+    def test_data_directory_deleted_keeps_its_lock(self):
+        # Deleting the data directory took the lock file with it: a second daemon could then start
+        # on the re-created directory. The daemon now takes its lock again (or answers 503 while
+        # another process holds the new lock file).
+        d = self.daemon(self.ok_worker)
+        c = Client(d.url)
+        readyz = lambda: self.raw(d, b"GET /readyz HTTP/1.1\r\nHost: x\r\n\r\n")
+        shutil.rmtree(d.data_dir)
+        status, reply = readyz()
+        self.assertIn(b" 503 ", status)
+        self.assertIn(b"storage-unavailable", reply)
+        os.makedirs(d.data_dir)
+        self.assertIn(b" 200 ", readyz()[0])  # lock taken again, folders made again
+        self.assertTrue(os.path.exists(os.path.join(d.data_dir, "lock")))
+        self.assertEqual(c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)["status"], "succeeded")
+        r = subprocess.run([d.exe, "--host", "127.0.0.1", "--port", "0", "--data-dir", d.data_dir],
+                           capture_output=True, timeout=20)
+        self.assertEqual(r.returncode, 1, r.stdout[-500:])  # a second daemon on it refuses to start
+        self.assertIn(b"another hocurved", r.stdout)
+        # A new directory whose lock another process holds (moved in at once, so the daemon cannot
+        # take it first): 503 for probes and submissions until that process lets go.
+        shutil.rmtree(d.data_dir)
+        other = os.path.join(self.tmp, "other")
+        os.makedirs(other)
+        with open(os.path.join(other, "lock"), "w") as held:
+            fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            os.rename(other, d.data_dir)
+            status, reply = readyz()
+            self.assertIn(b" 503 ", status)
+            self.assertIn(b"another process", reply)
+            with self.assertRaises(ProblemError) as e:
+                c.submit(SPHERE, {"order": 2})
+            self.assertEqual((e.exception.status, e.exception.type), (503, "storage-unavailable"))
+        self.assertIn(b" 200 ", readyz()[0])
 
     def test_slow_upload_is_cut_off(self):
         d = self.daemon(self.ok_worker)

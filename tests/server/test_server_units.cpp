@@ -15,6 +15,8 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <sys/file.h>
+#include <fcntl.h>
 #include <unistd.h>
 
 using namespace hocurve::server;
@@ -288,6 +290,29 @@ TEST_CASE("byte ranges: one range served, clipped; past the end unsatisfiable; t
   for (const char* ignored : {"", "bytes=0-1,5-6", "items=0-5", "bytes=abc", "bytes=9-2", "bytes=-", "bytes=1-2-3",
                               "bytes=0x10-", "bytes=1234567890123456789-"})
     CHECK_MESSAGE(part(ignored, 100) == "whole", ignored);
+}
+
+TEST_CASE("job store: a deleted data directory and its lost lock") {
+  const std::string dir = temp_dir("hocurve-lock");
+  JobStore store(dir);
+  CHECK(store.check_storage().empty());
+  CHECK_THROWS(JobStore(dir));
+  fs::remove_all(dir);
+  CHECK(store.check_storage().find("is gone") != std::string::npos);
+  fs::create_directories(dir);
+  CHECK(store.check_storage().empty());  // a new lock file, locked; the folders made again
+  CHECK(fs::is_directory(store.uploads_dir()));
+  CHECK_THROWS(JobStore(dir));
+  // Lock file replaced by one another process holds (flock: another open file conflicts too).
+  fs::remove(dir + "/lock");
+  const int other = ::open((dir + "/lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  REQUIRE(other >= 0);
+  REQUIRE(::flock(other, LOCK_EX | LOCK_NB) == 0);
+  CHECK(store.check_storage().find("another process") != std::string::npos);
+  ::close(other);
+  CHECK(store.check_storage().empty());
+  CHECK_THROWS(JobStore(dir));
+  fs::remove_all(dir);
 }
 
 TEST_CASE("problem objects carry type URI, code, title, status and extensions") {
