@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
@@ -100,11 +101,31 @@ Eigen::Vector3d curve_side_shift(const Mesh& mesh, const Topology& T, const Wedg
   return d - d.dot(n) * n;
 }
 
-/// How face nodes follow the curve sides of their face.
+/// How a face's nodes follow its curve sides.
 struct CurveSideBlend {
-  double power = 1;             ///< weight of a side's shift: (1 - xi of the opposite corner)^power
-  double max_shift = 1e300;     ///< sides whose shift exceeds this x their length do not count
+  double power = 1;                  ///< weight of a side's shift: (1 - xi of the opposite corner)^power
+  std::array<bool, 3> follow{};      ///< per side j (corners j, j + 1): its shift counts
 };
+
+/// The curve sides of face f whose shift (at a quarter, half and three quarters of the side) stays
+/// within max_shift x the side's length.
+std::array<bool, 3> curve_sides_within(const Mesh& mesh, const Topology& T, const Wedges& W,
+                                       const std::vector<LocalFit>& fits, const CurveFitResult& curves,
+                                       const EdgeContext& ctx, const std::vector<char>& on_curve, int f,
+                                       double max_shift) {
+  const Eigen::Vector3d a0 = mesh.V.row(mesh.F(f, 0)), a1 = mesh.V.row(mesh.F(f, 1)), a2 = mesh.V.row(mesh.F(f, 2));
+  const Eigen::Vector3d n = (a1 - a0).cross(a2 - a0).normalized();
+  std::array<bool, 3> within{};
+  for (int j = 0; j < 3; ++j) {
+    const int e = T.FE(f, j);
+    if (!on_curve[e]) continue;
+    double largest = 0;
+    for (double t : {0.25, 0.5, 0.75})
+      largest = std::max(largest, curve_side_shift(mesh, T, W, fits, curves, ctx, e, f, n, t).norm());
+    within[j] = largest <= max_shift * (mesh.V.row(T.E(e, 0)) - mesh.V.row(T.E(e, 1))).norm();
+  }
+  return within;
+}
 
 /// Face point of a face with sides on feature curves: the surface blend plus, from each such side,
 /// what the curve fit moves that side's point beyond the blend (at the point's projection from the
@@ -119,22 +140,15 @@ struct CurveSideBlend {
 /// (bench/README.md, session 26).
 Eigen::Vector3d curve_side_face_point(const Mesh& mesh, const Topology& T, const Wedges& W,
                                       const std::vector<LocalFit>& fits, const CurveFitResult& curves,
-                                      const EdgeContext& ctx, const std::vector<char>& on_curve, int f,
-                                      const Eigen::Vector3d& xi, const CurveSideBlend& blend) {
+                                      const EdgeContext& ctx, int f, const Eigen::Vector3d& xi,
+                                      const CurveSideBlend& blend) {
   Eigen::Vector3d x = blend_point(mesh, W, fits, f, xi);
   const Eigen::Vector3d a0 = mesh.V.row(mesh.F(f, 0)), a1 = mesh.V.row(mesh.F(f, 1)), a2 = mesh.V.row(mesh.F(f, 2));
   const Eigen::Vector3d n = (a1 - a0).cross(a2 - a0).normalized();
   for (int j = 0; j < 3; ++j) {
     const int e = T.FE(f, j);  // joins corners j and (j + 1) % 3; the opposite corner is (j + 2) % 3
     const double side = 1 - xi[(j + 2) % 3];
-    if (!on_curve[e] || !(side > 0)) continue;
-    if (blend.max_shift < 1e300) {  // the same decision for every node of the face
-      const double len = (mesh.V.row(T.E(e, 0)) - mesh.V.row(T.E(e, 1))).norm();
-      double largest = 0;
-      for (double s : {0.25, 0.5, 0.75})
-        largest = std::max(largest, curve_side_shift(mesh, T, W, fits, curves, ctx, e, f, n, s).norm());
-      if (!(largest <= blend.max_shift * len)) continue;
-    }
+    if (!blend.follow[j] || !(side > 0)) continue;
     const int a = T.E(e, 0) == mesh.F(f, j) ? j : (j + 1) % 3;  // corner at the edge's start
     const double t = xi[(a == j) ? (j + 1) % 3 : j] / side;   // from E(e, 0) to E(e, 1)
     x += std::pow(side, blend.power) * curve_side_shift(mesh, T, W, fits, curves, ctx, e, f, n, t);
@@ -204,18 +218,21 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
         bool curve_side = false;
         for (int j = 0; j < 3; ++j) curve_side = curve_side || on_curve[T.FE(f, j)];
         if (pn || !curve_side) continue;
-        // A valid face follows its curve sides smoothly (power 3) unless a side's shift exceeds 5%
-        // of its length: on scans, curve and surface fits disagree by noise there (spot: up to 14%
-        // of h, its deviation from the input 0.31 -> 0.36% without the limit), and kept unless it
-        // falls below the floor. A face the plain blend leaves below the floor takes every side
-        // (power 1, the spread that frees crowded nodes) if that raises its min J.
+        // A valid face follows its curve sides smoothly (power 3), those shifted by at most 5% of
+        // their length (on scans curve and surface fits disagree by noise: spot, up to 14% of h,
+        // deviation from the input 0.31 -> 0.36% without the limit), unless that takes it below the
+        // floor. A face the plain blend leaves below the floor takes every curve side (power 1, the
+        // spread that frees crowded nodes) if that raises its min J.
         const ElementValidity plain = check_element(basis, element_nodes(hm, f), floor);
-        const CurveSideBlend blend = plain.valid ? CurveSideBlend{3, 0.05} : CurveSideBlend{};
+        const CurveSideBlend blend =
+            plain.valid ? CurveSideBlend{3, curve_sides_within(mesh, T, W, fits, *curves, ctx, on_curve, f, 0.05)}
+                        : CurveSideBlend{1, {on_curve[T.FE(f, 0)] != 0, on_curve[T.FE(f, 1)] != 0, on_curve[T.FE(f, 2)] != 0}};
+        if (!blend.follow[0] && !blend.follow[1] && !blend.follow[2]) continue;
         const Eigen::MatrixXd kept = hm.face_nodes.middleRows(static_cast<Eigen::Index>(f) * npf, npf);
         for (int k = 0; k < npf; ++k) {
           const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
           hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k) =
-              curve_side_face_point(mesh, T, W, fits, *curves, ctx, on_curve, f, Eigen::Vector3d(1 - u - v, u, v), blend)
+              curve_side_face_point(mesh, T, W, fits, *curves, ctx, f, Eigen::Vector3d(1 - u - v, u, v), blend)
                   .transpose();
         }
         const double corrected = check_element(basis, element_nodes(hm, f), floor).min_scaled_jacobian;
