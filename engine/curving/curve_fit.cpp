@@ -108,7 +108,7 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
   for (int i = 0; i < k; ++i) dist[i] = (mesh.V.row(pts[i]).transpose() - C.o).norm();
   std::vector<double> sd(dist);
   std::sort(sd.begin(), sd.end());
-  const int need = std::max(1, std::min(k, static_cast<int>(std::ceil(opt.points_per_coef * p))));
+  const int need = std::max(1, std::min(k, static_cast<int>(std::ceil(opt.curve_points_per_coef * p))));
   const double sigma = std::max(opt.sigma_factor * C.h, 0.5 * sd[need - 1]);
 
   // Fits in the frame (tan, n1 = normal, tan x n1) over the reference circle of curvature kappa.

@@ -40,6 +40,13 @@ struct FitOptions {
   /// float32 STL, whose rounding the half-disc fits amplified, 2.5e-7 / 3.9e-7 / 2.0e-6 -> 1.3e-7 /
   /// 4.9e-8 / 4.5e-8.
   double points_per_coef_one_sided = 2.0;
+  /// The same for feature-curve fits (their Gaussian reaches the ceil(this x degree)-th nearest
+  /// point of the chain). A chain has two points per ring, so 1.5 put sigma at 1.5 h and the
+  /// fit reached three edges each way; on a curve that turns away from its reference circle (two
+  /// cylinders crossing: 19 edges round the hole) P4 at h = 0.1 / 0.05 / 0.025 was 4.9e-5 /
+  /// 2.3e-6 / 5.8e-8, now 2.1e-5 / 8.0e-7 / 2.3e-8 (0.5: 2.0e-5 / 7.5e-7 / 2.1e-8). Circles are
+  /// fitted exactly either way; screw P6 d/40 1.03e-2 -> 9.1e-3; shared meshes unchanged.
+  double curve_points_per_coef = 1.0;
   int max_rings = 6;
   int max_points = 128;
   /// Refit in the frame of the first fit's normal. Measured 1.3-3x LESS accurate than the
