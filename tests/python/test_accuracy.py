@@ -168,6 +168,24 @@ def check_isosurface_needles(hoc, work):
               m["max"], lin["max"], lin["max"] / max(m["max"], 1e-300), r["stats"]["curving"]["validity"]["needles_aligned"]))
 
 
+def cad_stl_and_ref(gmsh, name, h, work):
+    """Meshes cad_sweep shape `name` at size h (left current in gmsh, at order 1): its binary STL and
+    Gmsh's exact-CAD P4 of the same triangulation (REF), as paths in work."""
+    cad_sweep.build(gmsh, name)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    gmsh.option.setNumber("Mesh.MeshSizeMin", h / 4)
+    gmsh.model.mesh.generate(2)
+    stl = os.path.join(work, name + ".stl")
+    gmsh.option.setNumber("Mesh.Binary", 1)
+    gmsh.write(stl)
+    gmsh.option.setNumber("Mesh.Binary", 0)
+    gmsh.model.mesh.setOrder(4)
+    ref_path = os.path.join(work, name + "_ref4.msh")
+    gmsh.write(ref_path)
+    gmsh.model.mesh.setOrder(1)
+    return stl, ref_path
+
+
 def check_open_surfaces(hoc, work):
     """Open surfaces (binary STL): a hemisphere (h = 0.05, 6,184 triangles) and a quarter torus
     (h = 0.1, 998 triangles), each bounded by circles. A vertex on the boundary has one wedge but a
@@ -176,17 +194,7 @@ def check_open_surfaces(hoc, work):
     exact-CAD P4 (2.2e-5). Now: P4 >= 1000x / 500x below linear, within 10x of Gmsh's CAD P4."""
     gmsh = shapes.gmsh_init()
     for name, sphere_or_torus, h, gain in (("hemisphere", "sphere", 0.05, 1000), ("quartertorus", "torus", 0.1, 500)):
-        cad_sweep.build(gmsh, name)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
-        gmsh.option.setNumber("Mesh.MeshSizeMin", h / 4)
-        gmsh.model.mesh.generate(2)
-        stl = os.path.join(work, name + ".stl")
-        gmsh.option.setNumber("Mesh.Binary", 1)
-        gmsh.write(stl)
-        gmsh.option.setNumber("Mesh.Binary", 0)
-        gmsh.model.mesh.setOrder(4)
-        ref_path = os.path.join(work, name + "_ref4.msh")
-        gmsh.write(ref_path)
+        stl, ref_path = cad_stl_and_ref(gmsh, name, h, work)
         gmsh.model.remove()
         out = os.path.join(work, name + "_p4.msh")
         r = accuracy.run_hocurve(hoc, stl, out, 4, out + ".json", timeout=300)
@@ -214,18 +222,7 @@ def check_curve_sides(hoc, work):
       Now within 10x of Gmsh's CAD P4."""
     gmsh = shapes.gmsh_init()
     for name, gain, ref_factor in (("cutsphere", 3e4, 1), ("crosshole", 100, 10)):
-        cad_sweep.build(gmsh, name)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.1)
-        gmsh.option.setNumber("Mesh.MeshSizeMin", 0.025)
-        gmsh.model.mesh.generate(2)
-        stl = os.path.join(work, name + ".stl")
-        gmsh.option.setNumber("Mesh.Binary", 1)
-        gmsh.write(stl)
-        gmsh.option.setNumber("Mesh.Binary", 0)
-        gmsh.model.mesh.setOrder(4)
-        ref_path = os.path.join(work, name + "_ref4.msh")
-        gmsh.write(ref_path)
-        gmsh.model.mesh.setOrder(1)
+        stl, ref_path = cad_stl_and_ref(gmsh, name, 0.1, work)
         out = os.path.join(work, name + "_p4.msh")
         r = accuracy.run_hocurve(hoc, stl, out, 4, out + ".json", timeout=300)
         check(r["rc"] == 0, "%s: hocurve curve --order 4 exits 0 (rc %s)" % (name, r["rc"]))
