@@ -1,5 +1,7 @@
 #include "server/byte_range.hpp"
 
+#include <httplib.h>
+
 #include <algorithm>
 #include <cctype>
 #include <optional>
@@ -48,6 +50,15 @@ ByteRange parse_byte_range(const std::string& header, std::uint64_t size) {
   }
   r.kind = ByteRange::kPart;
   return r;
+}
+
+bool httplib_refuses_range(const std::string& value) {
+  httplib::Ranges ranges;
+  try {
+    return !httplib::detail::parse_range_header(value, ranges);
+  } catch (const std::exception&) {  // std::stoll on more digits than fit
+    return true;
+  }
 }
 
 std::string content_range(const ByteRange& range, std::uint64_t size) {

@@ -21,6 +21,12 @@ struct ByteRange {
 /// `first-last` (last clipped to the end), `first-` and `-suffix` are served.
 ByteRange parse_byte_range(const std::string& header, std::uint64_t size);
 
+/// True when cpp-httplib 0.11 would refuse a `Range` header of this value (after the colon and
+/// its blanks): it parses Range while reading the request, before any handler runs, and answers
+/// 416 on every route to values RFC 9110 says to ignore ("bytes=abc", "items=0-5", "bytes=5-2")
+/// and to some valid ones ("BYTES=0-9").
+bool httplib_refuses_range(const std::string& value);
+
 /// The `Content-Range` value of a part: "bytes first-last/size".
 std::string content_range(const ByteRange& range, std::uint64_t size);
 

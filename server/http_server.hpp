@@ -6,7 +6,8 @@
 // Its stream also refuses to write to a client that half-closed (shutdown(SHUT_WR)) after a
 // complete request. HttpServer keeps one stream per connection (what it read ahead stays for the
 // next request), writes to half-closed clients, ends the connection after any answer that says
-// `Connection: close`, and tells handlers their connection's socket.
+// `Connection: close`, tells handlers their connection's socket, and hides from the library the
+// Range headers it would refuse with a 416 before routing (see range_header).
 #pragma once
 #include <httplib.h>
 
@@ -24,6 +25,12 @@ int current_connection_socket();
 /// Ends this thread's connection once the current answer is written, whatever its headers say
 /// (the answer itself should carry `Connection: close`).
 void close_connection_after_response();
+
+/// The request's Range header, or else the one this thread's connection kept from the library:
+/// cpp-httplib 0.11 parses Range before any handler runs and answers 416 on every route to values
+/// it cannot parse, valid ones ("BYTES=0-9") and those RFC 9110 says to ignore ("bytes=abc") alike;
+/// HttpServer hides them from it. Empty if none.
+std::string range_header(const httplib::Request& req);
 
 /// Tells a client that closed or reset its connection from one that only half-closed it after
 /// sending its whole request (legal HTTP). Both send a FIN, seen as POLLRDHUP; only a closed socket

@@ -199,12 +199,12 @@ void stream_file(App& app, const Request& req, Response& res, const std::string&
     modified = http_date(st.st_mtim.tv_sec);
     const std::string if_range = req.get_header_value("If-Range");
     if (req.method == "GET" && (if_range.empty() || if_range == etag || if_range == modified))
-      range = parse_byte_range(req.get_header_value("Range"), size);
+      range = parse_byte_range(range_header(req), size);
     if (range.kind == ByteRange::kUnsatisfiable) {
       ::close(fd);
       res.set_header("Content-Range", "bytes */" + std::to_string(size));
       throw ApiError(416, "range-not-satisfiable",
-                     "the range '" + req.get_header_value("Range").substr(0, 64) + "' lies outside the " +
+                     "the range '" + range_header(req).substr(0, 64) + "' lies outside the " +
                          std::to_string(size) + " bytes of the result");
     }
     t_accept_ranges = true;
@@ -525,8 +525,8 @@ void install_routes(httplib::Server& svr, App& app) {
                      "request could not be processed (HTTP " + std::to_string(res.status) + ")");
     }
     // The library refused the request while reading it: where it stopped (mid header, mid body)
-    // is no place to read the next request from.
-    if (res.status != 404 && res.status != 405 && res.status != 416) res.set_header("Connection", "close");
+    // is no place to read the next request from (a 416 of the library left the body unread too).
+    if (res.status != 404 && res.status != 405) res.set_header("Connection", "close");
     return httplib::Server::HandlerResponse::Handled;
   }));
 
