@@ -28,3 +28,16 @@ fail_with_problem() {
   echo >&2
   exit 1
 }
+
+# header_value FILE NAME: the value of the last NAME header in a curl -D dump (empty if none).
+header_value() {
+  { grep -i "^$2:" "$1" || true; } | tail -n1 | sed -e 's/^[^:]*:[[:space:]]*//' -e 's/\r$//'
+}
+
+# full_length FILE: the full length of the answer in a curl -D dump: Content-Range's total for a
+# part, else Content-Length.
+full_length() {
+  local range
+  range=$(header_value "$1" Content-Range)
+  if [ -n "$range" ]; then echo "${range##*/}"; else header_value "$1" Content-Length; fi
+}

@@ -8,6 +8,10 @@ As a module:
     job = c.wait(job["id"])
     c.download(job["id"], "mesh_p4.msh")
 
+Downloads go to OUT.part, renamed to OUT only when complete. A dropped connection or a short
+read is resumed (Range: bytes=N- with If-Range: the first answer's ETag), up to
+DOWNLOAD_ATTEMPTS tries with backoff; a 200 to a resumed request (the result changed) starts over.
+
 As a program:
     hocurve_client.py --url http://127.0.0.1:8080 submit mesh.stl --order 4 --wait -o mesh_p4.msh
     hocurve_client.py status JOB | wait JOB | download JOB -o OUT | stats JOB | cancel JOB | list | info
@@ -15,6 +19,7 @@ Errors are RFC 9457 problem details; the CLI prints their title and detail and e
 """
 import argparse
 import errno
+import http.client
 import json
 import os
 import sys
@@ -25,6 +30,7 @@ import urllib.request
 import uuid
 
 TERMINAL = ("succeeded", "failed", "cancelled")
+DOWNLOAD_ATTEMPTS = 5  # tries of one result download in all; waits 0.5, 1, 2, 4 s between them
 
 
 class ProblemError(Exception):
@@ -47,7 +53,9 @@ class Client:
         self.timeout = timeout
 
     # -- transport ---------------------------------------------------------------------------
-    def _request(self, method, path, body=None, headers=None, query=None, stream_to=None):
+    def _open(self, method, path, body=None, headers=None, query=None):
+        """Sends one request; returns the open response, raises ProblemError for an error answer
+        (status >= 400) or a transport failure (status 0)."""
         url = self.base_url + path
         if query:
             url += "?" + urllib.parse.urlencode({k: _qv(v) for k, v in query.items()})
@@ -70,25 +78,14 @@ class Client:
             raise err from None
         except (urllib.error.URLError, OSError) as e:
             raise ProblemError(0, {"title": "Connection failed", "detail": "%s: %s" % (url, e)}) from None
+        return resp
+
+    def _request(self, method, path, body=None, headers=None, query=None, stream_to=None):
+        resp = self._open(method, path, body, headers, query)
         with resp:
             if stream_to is not None:
-                total = 0
-                tmp = stream_to + ".part"
-                try:
-                    with open(tmp, "wb") as f:
-                        while True:
-                            chunk = resp.read(1 << 16)
-                            if not chunk:
-                                break
-                            f.write(chunk)
-                            total += len(chunk)
-                    os.replace(tmp, stream_to)
-                except BaseException:
-                    try:
-                        os.remove(tmp)
-                    except OSError:
-                        pass
-                    raise
+                with _part_file(stream_to) as f:
+                    total = _copy(resp, f)
                 return resp.status, dict(resp.headers), total
             data = resp.read()
             ctype = resp.headers.get("Content-Type", "")
@@ -168,9 +165,46 @@ class Client:
             time.sleep(interval)
             interval = min(interval * 1.5, 2.0)
 
-    def download(self, job_id, dest):
-        """Streams the result .msh to `dest` (written atomically); returns the byte count."""
-        return self._request("GET", "/v1/jobs/%s/result" % urllib.parse.quote(job_id, safe=""), stream_to=dest)[2]
+    def download(self, job_id, dest, attempts=DOWNLOAD_ATTEMPTS):
+        """Streams the result .msh to `dest` (written atomically); returns the byte count. An
+        interrupted transfer resumes where it stopped (see the module's docstring)."""
+        path = "/v1/jobs/%s/result" % urllib.parse.quote(job_id, safe="")
+        with _part_file(dest) as f:
+            etag, failure = None, None
+            for attempt in range(attempts):
+                if attempt:
+                    time.sleep(0.5 * 2 ** (attempt - 1))
+                etag, failure = self._download_attempt(path, f, etag)
+                if failure is None:
+                    return f.tell()
+            raise ProblemError(0, {"title": "Download failed", "detail": "%s%s after %d attempts: %s" % (
+                self.base_url, path, attempts, failure)})
+
+    def _download_attempt(self, path, f, etag):
+        """One GET of a download into `f`: resumes at f's end if it holds bytes of version `etag`,
+        else (or if the answer is the whole result) starts over. Returns the answer's ETag and None
+        once f holds the full length, or why not (transport failure, short read); raises
+        ProblemError for an error answer."""
+        have = f.tell()
+        resume = have > 0 and etag is not None
+        try:
+            resp = self._open("GET", path, headers={"Range": "bytes=%d-" % have, "If-Range": etag} if resume else None)
+        except ProblemError as e:
+            if e.status != 0:
+                raise
+            return etag, e.detail
+        with resp:
+            if resp.status != 206 or not resume:
+                f.seek(0)
+                f.truncate()
+            etag, size = resp.headers.get("ETag"), _full_length(resp)
+            try:
+                _copy(resp, f)
+            except (ConnectionError, TimeoutError, http.client.HTTPException) as e:  # not a local write error
+                return etag, str(e) or type(e).__name__
+        if size is not None and f.tell() != size:
+            return etag, "short read: %d of %d bytes" % (f.tell(), size)
+        return etag, None
 
     def stats(self, job_id):
         return self._request("GET", "/v1/jobs/%s/stats" % urllib.parse.quote(job_id, safe=""))[2]
@@ -179,6 +213,51 @@ class Client:
         """DELETE: cancels a queued/running job (returns it) or deletes a finished one (returns None)."""
         status, _, body = self._request("DELETE", "/v1/jobs/" + urllib.parse.quote(job_id, safe=""))
         return body if status == 202 else None
+
+
+class _part_file:
+    """`with _part_file(dest) as f`: f is dest + ".part", opened for writing; renamed to `dest` when
+    the block ends normally, removed when it raises."""
+
+    def __init__(self, dest):
+        self.dest, self.tmp = dest, dest + ".part"
+
+    def __enter__(self):
+        self.f = open(self.tmp, "wb")
+        return self.f
+
+    def __exit__(self, exc_type, *exc):
+        self.f.close()
+        if exc_type is None:
+            os.replace(self.tmp, self.dest)
+            return False
+        try:
+            os.remove(self.tmp)
+        except OSError:
+            pass
+        return False
+
+
+def _copy(resp, f):
+    """Copies a response body to `f` in 64 KiB chunks; returns the byte count (short if the
+    connection ended early: http.client then just stops)."""
+    total = 0
+    while True:
+        chunk = resp.read(1 << 16)
+        if not chunk:
+            return total
+        f.write(chunk)
+        total += len(chunk)
+
+
+def _full_length(resp):
+    """The full length of the representation: Content-Range's total for a 206, else Content-Length
+    (None if the answer does not say)."""
+    if resp.status == 206:
+        total = (resp.headers.get("Content-Range") or "").rpartition("/")[2]
+        return int(total) if total.isdigit() else None
+    length = resp.headers.get("Content-Length")
+    return int(length) if length and length.isdigit() else None
 
 
 def _qv(v):

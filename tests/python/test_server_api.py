@@ -6,10 +6,12 @@ import json
 import os
 import re
 import shutil
+import socket
 import struct
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import unittest
 
@@ -53,6 +55,66 @@ def problem(testcase, resp, status, code):
     testcase.assertTrue(p["type"].endswith("/" + code))
     testcase.assertTrue(p["detail"])
     return p
+
+
+class CuttingProxy:
+    """A loopback proxy in front of the daemon that drops the connection of the first `cuts`
+    requests whose request line holds `marker` after `keep` bytes of their answer (a network
+    failure mid-download); `edit` may rewrite each request's head. Records every head in `heads`."""
+
+    def __init__(self, url, marker, keep, cuts=1, edit=None):
+        self.upstream = ("127.0.0.1", int(url.rsplit(":", 1)[1]))
+        self.marker, self.keep, self.cuts, self.edit = marker, keep, cuts, edit
+        self.heads = []
+        self.lock = threading.Lock()
+        self.server = socket.create_server(("127.0.0.1", 0))
+        self.url = "http://127.0.0.1:%d" % self.server.getsockname()[1]
+        threading.Thread(target=self._accept, daemon=True).start()
+
+    def close(self):
+        self.server.close()
+
+    def _accept(self):
+        while True:
+            try:
+                client, _ = self.server.accept()
+            except OSError:
+                return
+            threading.Thread(target=self._serve, args=(client,), daemon=True).start()
+
+    def _serve(self, client):
+        """Relays one connection; a request head arrives in one piece on loopback."""
+        upstream = socket.create_connection(self.upstream, timeout=30)
+        head = client.recv(65536)
+        if self.edit:
+            head = self.edit(head)
+        with self.lock:
+            self.heads.append(head)
+            cut = self.marker in head.split(b"\r\n", 1)[0] and self.cuts > 0
+            self.cuts -= cut
+        upstream.sendall(head)
+        threading.Thread(target=self._pump, args=(client, upstream, None), daemon=True).start()
+        self._pump(upstream, client, self.keep if cut else None)
+
+    @staticmethod
+    def _pump(src, dst, limit):
+        """Copies src to dst until either ends (or `limit` bytes went through), then closes both."""
+        sent = 0
+        try:
+            while limit is None or sent < limit:
+                data = src.recv(65536 if limit is None else min(65536, limit - sent))
+                if not data:
+                    break
+                dst.sendall(data)
+                sent += len(data)
+        except OSError:
+            pass
+        for s in (src, dst):
+            try:
+                s.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+            s.close()
 
 
 def binary_stl(triangles, declared=None):
@@ -636,6 +698,43 @@ class ServerApi(unittest.TestCase):
         self.assertEqual(r.returncode, 1)
         self.assertIn("not-found", r.stderr)
 
+    def test_python_download_resumes(self):
+        # Two connections dropped mid-download: the client resumes each time (Range + If-Range) and
+        # ends with the whole file; an If-Range the server does not match (a changed result) gets
+        # 200 and the client starts over.
+        done = self.submit_wait()
+        full = raw(self.d.url, "GET", "/v1/jobs/%s/result" % done["id"])[2]
+        out = os.path.join(self.tmp, "resumed-py.msh")
+        proxy = CuttingProxy(self.d.url, b"/result", keep=len(full) // 3, cuts=2)
+        try:
+            self.assertEqual(Client(proxy.url, timeout=30).download(done["id"], out), len(full))
+        finally:
+            proxy.close()
+        self.assertEqual(data(out), full)
+        self.assertFalse(os.path.exists(out + ".part"))
+        ranges = [re.search(rb"\r\nRange: bytes=(\d+)-\r\n", h) for h in proxy.heads]
+        self.assertEqual([int(m[1]) if m else None for m in ranges][:1], [None])
+        self.assertEqual(len(proxy.heads), 3, proxy.heads)
+        self.assertTrue(all(m and 0 < int(m[1]) < len(full) for m in ranges[1:]), proxy.heads)
+        self.assertTrue(all(b"\r\nIf-Range: \"" in h for h in proxy.heads[1:]), proxy.heads)
+        stale = CuttingProxy(self.d.url, b"/result", keep=len(full) // 3, cuts=1,
+                             edit=lambda h: re.sub(rb"If-Range: [^\r]*", b'If-Range: "stale"', h))
+        try:
+            self.assertEqual(Client(stale.url, timeout=30).download(done["id"], out), len(full))
+        finally:
+            stale.close()
+        self.assertEqual(data(out), full)
+        # Every attempt cut: a bounded number of tries, then an error, and no file left behind.
+        os.remove(out)
+        cutter = CuttingProxy(self.d.url, b"/result", keep=len(full) // 3, cuts=99)
+        try:
+            with self.assertRaises(ProblemError) as e:
+                Client(cutter.url, timeout=30).download(done["id"], out, attempts=3)
+        finally:
+            cutter.close()
+        self.assertIn("after 3 attempts", str(e.exception))
+        self.assertFalse(os.path.exists(out) or os.path.exists(out + ".part"))
+
     def test_python_cli_local_errors(self):
         # A missing mesh, an output in a missing directory or under a file: one `error:` line, exit 1.
         cli = os.path.join(D.SOURCE_DIR, "clients", "python", "hocurve_client.py")
@@ -681,6 +780,32 @@ class ServerApi(unittest.TestCase):
                            env=env)
         self.assertNotEqual(r.returncode, 0)
         self.assertIn("not-found", r.stderr + r.stdout)
+
+    def test_curl_download_resumes(self):
+        # download.sh through connections dropped mid-way: it resumes with curl -C - and If-Range,
+        # starts over when the server answers a resume with 200, and ends with the whole file.
+        if not shutil.which("curl"):
+            self.skipTest("curl not installed")
+        done = self.submit_wait()
+        full = raw(self.d.url, "GET", "/v1/jobs/%s/result" % done["id"])[2]
+        script = os.path.join(D.SOURCE_DIR, "clients", "curl", "download.sh")
+        out = os.path.join(self.tmp, "resumed-curl.msh")
+        for cuts, edit in [(2, None), (1, lambda h: re.sub(rb"If-Range: [^\r]*", b'If-Range: "stale"', h))]:
+            proxy = CuttingProxy(self.d.url, b"/result", keep=len(full) // 3, cuts=cuts, edit=edit)
+            try:
+                r = subprocess.run(["bash", script, done["id"], out], capture_output=True, text=True, timeout=60,
+                                   env=dict(os.environ, HOCURVE_URL=proxy.url))
+            finally:
+                proxy.close()
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertEqual(data(out), full)
+            self.assertFalse(os.path.exists(out + ".part"))
+            self.assertEqual(len(proxy.heads), cuts + 1 + (edit is not None), proxy.heads)
+            if not edit:
+                self.assertNotIn(b"\r\nRange:", proxy.heads[0])
+                for h in proxy.heads[1:]:
+                    m = re.search(rb"\r\nRange: bytes=(\d+)-\r\n", h)
+                    self.assertTrue(m and 0 < int(m[1]) < len(full) and b"\r\nIf-Range: \"" in h, h)
 
 
 class CurlProgress(unittest.TestCase):
