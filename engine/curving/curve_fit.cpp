@@ -203,7 +203,9 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
                   std::atan2(d.cross(-c).norm(), -d.dot(c)) <= 170.0 / 180.0 * std::numbers::pi;
     }
     const Eigen::Vector3d cn = c.normalized();
-    if (!on_circle || !refit((line.t - line.t.dot(cn) * cn).normalized(), cn, 1.0 / c.norm())) {
+    if (on_circle && refit((line.t - line.t.dot(cn) * cn).normalized(), cn, 1.0 / c.norm())) {
+      C.on_circle = k >= 3;
+    } else {
       const Eigen::Vector3d kv = 2 * (line.cy[1] * line.n1 + line.cz[1] * line.n2) / line.h;
       refit(line.t, kv, std::min(kv.norm(), 1.5 / reach));
     }

@@ -27,6 +27,9 @@ struct CurveFit {
   int degree = 0;
   Eigen::VectorXd cy, cz;
   int points = 0;
+  /// The points (three or more) lie on the reference circle to FitOptions::circle_tolerance:
+  /// an arc of a CAD rim, hole or fillet, which the fit follows exactly.
+  bool on_circle = false;
   /// (s, y, z) of a point in the fit's chart.
   Eigen::Vector3d coords(const Eigen::Vector3d& q) const;
   /// The fitted curve point at x's parameter s.

@@ -54,26 +54,41 @@ int feature_valence(const Topology& T, const Features& feat, int v) {
   return n;
 }
 
-/// Point at t of feature edge e. A curve that is this one edge between two corners has fits of
-/// its two ends only: a line, whatever the surfaces do (the screw's slot floor meets its conical
-/// head in an arc one edge long, left a chord 2.1e-2 off at d/40). Where both corners join three
-/// curves or more (a CAD face's corner, not a scan's noise crease turning), the edge goes on the
-/// intersection of the surface fits of its two sides with the plane normal to the chord at t, by
-/// alternating projections from the chord point (linear convergence, at cos^2 of the crease angle,
-/// >= 35 degrees: 0.67 per step). Not on long edges (long_edge->edge): CAD exports' fits do not
-/// reach along them (t13's 48 mm walls moved by 3.5 mm); not between two flat patches, whose fits
-/// the curves beside them may bend (a stadium's straight side between its end arcs: 2.2e-3). The
-/// chord stays if the projections do not converge or move it by more than 5% of its length (an
-/// arc of 23 degrees per edge): with a quarter, scans' elements invalid before repair tripled.
+/// Point at t of feature edge e: where the surface fits of its two sides cross the plane normal
+/// to the chord at t, found by alternating projections from the curve fit's point (linear
+/// convergence, at cos^2 of the crease angle, >= 35 degrees: 0.67 per step). Why: a curve fit
+/// follows its chain of vertices, but where two surfaces cross in a curve that turns away from
+/// any circle (a cylinder crossed by a hole) its nodes missed the crossing by 6x Gmsh's exact-CAD
+/// P4 error, while each side's surface fit is within the P4 error there (cross hole h = 0.1, P4
+/// 2.1e-5 -> 6.5e-7; Gmsh's CAD P4 3.7e-6). And a curve that is this one edge between two corners
+/// has fits of its two ends only: a line, whatever the surfaces do (the screw's slot floor meets
+/// its conical head in an arc one edge long, left a chord 2.1e-2 off at d/40).
+/// The curve point stays:
+/// - where an end fit found its points on a circle (CurveFit::on_circle): exact, while the
+///   surface fits of a thin plate's walls are not (a stadium's arcs moved 4.8e-4 off their circle);
+/// - on long edges (long_edge->edge): CAD exports' fits do not reach along them (t13's 48 mm
+///   walls moved by 3.5 mm);
+/// - between two flat patches, whose fits the curves beside them may bend (a stadium's straight
+///   side between its end arcs: 2.2e-3);
+/// - on a one-edge curve unless both corners join three curves or more (a CAD face's corner, not a
+///   scan's noise crease turning);
+/// - where the projections do not converge or move it further than 0.1% of the edge length from a
+///   fitted curve (with 1%, T20 at d/20 went 4.4e-3 -> 8.7e-3: coarse fits cross off the
+///   curve; shared meshes unchanged either way), 5% from a
+///   one-edge chord (an arc of 23 degrees per edge: with a quarter, scans' elements invalid
+///   before repair tripled).
 Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
                                    const CurveFitResult& curves, const EdgeContext& ctx, int e, double t) {
   const Eigen::Vector3d line = curve_edge_point(mesh, T, curves, e, t);
-  if (curves.fits[2 * e].points > 2 || curves.fits[2 * e + 1].points > 2 || T.edge_faces[e].size() != 2 ||
+  const CurveFit &c0 = curves.fits[2 * e], &c1 = curves.fits[2 * e + 1];
+  const bool fitted = c0.points > 2 || c1.points > 2;
+  if (T.edge_faces[e].size() != 2 || (fitted && (c0.on_circle || c1.on_circle)) ||
       (ctx.long_edge && !ctx.long_edge->edge.empty() && ctx.long_edge->edge[e]))
     return line;
   const int f1 = T.edge_faces[e][0], f2 = T.edge_faces[e][1];
   if (ctx.planar && (*ctx.planar)[f1] >= 0 && (*ctx.planar)[f2] >= 0) return line;  // plane meets plane
-  if (ctx.feat && (feature_valence(T, *ctx.feat, T.E(e, 0)) < 3 || feature_valence(T, *ctx.feat, T.E(e, 1)) < 3))
+  if (!fitted && ctx.feat &&
+      (feature_valence(T, *ctx.feat, T.E(e, 0)) < 3 || feature_valence(T, *ctx.feat, T.E(e, 1)) < 3))
     return line;
   const Eigen::Vector3d xi1 = edge_barycentric(mesh, T, e, f1, t), xi2 = edge_barycentric(mesh, T, e, f2, t);
   const Eigen::Vector3d chord = mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0));
@@ -86,7 +101,7 @@ Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const We
     const double step = (y - x).norm();
     x = y;
     if (!(step <= 1e-13 * len)) continue;
-    return (x - line).norm() <= 0.05 * len ? x : line;
+    return (x - line).norm() <= (fitted ? 1e-3 : 0.05) * len ? x : line;
   }
   return line;
 }
