@@ -41,21 +41,47 @@ double largest_angle_deg(const Mesh& mesh, int f) {
   return largest;
 }
 
-/// True when face f is a cap (largest angle above `cap_deg`) whose normal every edge neighbour
-/// contradicts by more than `tilt_deg`: its corners do not fix its normal. A cap in a fan of a
-/// flat or gently curved face agrees with a neighbour of that face, even on the face's rim.
-bool unreliable_cap(const Mesh& mesh, const Topology& T, int f, double cap_deg, double tilt_deg) {
-  if (largest_angle_deg(mesh, f) <= cap_deg) return false;
+/// True when face f's height over its longest edge is below that of an isosceles cap whose apex
+/// angle is cap_deg: its corners are nearly collinear (a cap, or a needle).
+bool thin_face(const Mesh& mesh, int f, double cap_deg) {
+  const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+  const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+  const double height = (b - a).cross(c - a).norm() / longest;
+  return height < 0.5 * std::tan((180.0 - cap_deg) / 360.0 * std::numbers::pi) * longest;
+}
+
+/// How far face f's normal can be trusted.
+enum class FaceNormal : char {
+  reliable,
+  cap,     ///< a cap (largest angle above cap_deg) whose every edge neighbour contradicts its normal
+  needle,  ///< a thin face, not a cap, whose neighbours across both long sides contradict it
+};
+
+/// Whether face f's corners fix its normal. A cap's or a needle's corners are nearly collinear:
+/// its normal is tilted by about its longest edge's sagitta over its height. It is unreliable when
+/// its neighbours contradict it by more than `tilt_deg` (a cap in a fan of a flat or gently curved
+/// face agrees with a neighbour of that face, even on the face's rim; a needle of a CAD strip with
+/// the strip beside it). Not across a needle's short side, whose neighbour is as unreliable: the
+/// marching-tetrahedra torus at grid 24 pairs needles 0.2 long and 1e-3 wide, each tilted 23
+/// degrees from both its long neighbours and within 2 of the face beyond its short side.
+FaceNormal face_normal_trust(const Mesh& mesh, const Topology& T, int f, double cap_deg, double tilt_deg) {
+  const bool cap = largest_angle_deg(mesh, f) > cap_deg;
+  if (!cap && !thin_face(mesh, f, cap_deg)) return FaceNormal::reliable;
+  const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+  const double side[3] = {(b - a).norm(), (c - b).norm(), (a - c).norm()};  // side j: corners j, j + 1
+  const double longest = std::max({side[0], side[1], side[2]});
   for (int j = 0; j < 3; ++j) {
+    if (!cap && side[j] < 0.5 * longest) continue;
     const auto& ef = T.edge_faces[T.FE(f, j)];
-    if (ef.size() == 2 && angle_deg(face_normal(mesh, ef[0]), face_normal(mesh, ef[1])) <= tilt_deg) return false;
+    if (ef.size() == 2 && angle_deg(face_normal(mesh, ef[0]), face_normal(mesh, ef[1])) <= tilt_deg)
+      return FaceNormal::reliable;
   }
-  return true;
+  return cap ? FaceNormal::cap : FaceNormal::needle;
 }
 
 /// Kink angle in degrees along interior edge e: a Gaussian-weighted least-squares fit of
 /// z = quadric(x, y) + k |y| + k' x |y|, in the frame (x along the edge, y across it, z along the
-/// mean of its two unit face normals, or for an edge of an unreliable cap the area-weighted normal
+/// mean of its two unit face normals, or for an edge of an unreliable cap or needle the summed normal
 /// of the faces at its ends) scaled by the edge length, to the vertices of three face rings around the edge
 /// grown without crossing the edges in `wall` (features already found); returns 2 atan|k|.
 double kink_angle_deg(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e, bool cap) {
@@ -176,13 +202,13 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
   // kink test confirms, with the first ones as walls its stencils do not cross.
   std::vector<char> only_sharp(ne, 0);  // feature only because of its dihedral angle
   std::vector<double> theta(ne, 0.0);
-  std::vector<char> cap(ne, 0);  // an edge of an unreliable cap: the kink test decides
+  std::vector<char> cap(ne, 0);     // an edge of an unreliable cap: the kink test decides
+  std::vector<char> needle(ne, 0);  // an edge of an unreliable needle: the kink test's frame as a cap's
   const bool dihedral = opt.angle_deg < 180;
   const bool kink_test = dihedral && opt.weak_angle_deg < opt.angle_deg;
-  std::vector<char> face_cap(mesh.num_faces(), 0);
+  std::vector<FaceNormal> trust(mesh.num_faces(), FaceNormal::reliable);
   if (kink_test)
-    for (int f = 0; f < mesh.num_faces(); ++f)
-      face_cap[f] = unreliable_cap(mesh, T, f, opt.cap_angle_deg, opt.cap_tilt_deg);
+    for (int f = 0; f < mesh.num_faces(); ++f) trust[f] = face_normal_trust(mesh, T, f, opt.cap_angle_deg, opt.cap_tilt_deg);
   for (int e = 0; e < ne; ++e) {
     const auto& ef = T.edge_faces[e];
     bool feat = false;
@@ -196,7 +222,8 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
         if (opt.entity_borders) feat = true;
       }
       theta[e] = angle_deg(face_normal(mesh, ef[0]), face_normal(mesh, ef[1]));
-      cap[e] = face_cap[ef[0]] || face_cap[ef[1]];
+      cap[e] = trust[ef[0]] == FaceNormal::cap || trust[ef[1]] == FaceNormal::cap;
+      needle[e] = trust[ef[0]] == FaceNormal::needle || trust[ef[1]] == FaceNormal::needle;
       if (dihedral && theta[e] > opt.angle_deg && !cap[e] &&
           !(theta[e] <= opt.fillet_max_deg && coarse_fillet_middle(mesh, T, e, theta[e]))) {
         ++R.sharp_edges;
@@ -214,7 +241,7 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
           (theta[e] > opt.angle_deg && !cap[e]))
         continue;
       if (smooth_entities && mesh.entity_of(T.edge_faces[e][0]) == mesh.entity_of(T.edge_faces[e][1])) continue;
-      const double kink = kink_angle_deg(mesh, T, wall, e, cap[e]);
+      const double kink = kink_angle_deg(mesh, T, wall, e, cap[e] || needle[e]);
       if (kink >= opt.kink_angle_deg && (cap[e] || kink >= 0.5 * theta[e])) {
         ++R.sharp_edges, ++R.kink_edges;
         only_sharp[e] = 1;

@@ -5,6 +5,12 @@
 
 namespace hocurve {
 
+bool smooth_surface(long long feature_edges, long long edges, const std::vector<int>& planar,
+                    const LongEdgeOptions& opt) {
+  return feature_edges < opt.smooth_feature_share * static_cast<double>(edges) &&
+         std::none_of(planar.begin(), planar.end(), [](int anchor) { return anchor >= 0; });
+}
+
 LongEdgeResult long_edges(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
                           const LongEdgeOptions& opt) {
   LongEdgeResult R;

@@ -923,6 +923,45 @@ TEST_CASE("long edges of CAD exports take their PN triangle; gradual meshes have
   }
 }
 
+TEST_CASE("a smooth mesh graded abruptly: its long edges' end fits agree and keep them") {
+  // Gmsh's unit sphere at h = 0.2, and 0.025 for x > 0.3 with no transition (8:1). A smooth mesh
+  // skips the long-edge rule (LongEdgeOptions::smooth_feature_share); without that, the end fits'
+  // agreement must keep the edges at the jump off their PN curves (there 1.9e-2 off the sphere).
+  Mesh m;
+  {
+    GmshSession gmsh_session;
+    gmsh::model::add("graded sphere");
+    gmsh::model::occ::addSphere(0, 0, 0, 1);
+    gmsh::model::occ::synchronize();
+    const int box = gmsh::model::mesh::field::add("Box");
+    for (const auto& [k, v] : std::vector<std::pair<std::string, double>>{
+             {"VIn", 0.025}, {"VOut", 0.2}, {"XMin", 0.3}, {"XMax", 2}, {"YMin", -2}, {"YMax", 2}, {"ZMin", -2}, {"ZMax", 2}, {"Thickness", 0}})
+      gmsh::model::mesh::field::setNumber(box, k, v);
+    gmsh::model::mesh::field::setAsBackgroundMesh(box);
+    for (const char* o : {"Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"})
+      gmsh::option::setNumber(o, 0);
+    gmsh::option::setNumber("Mesh.Algorithm", 6);
+    m = gmsh_surface_mesh(1e22, 1e-22);
+  }
+  const Dist dist = [](const Eigen::Vector3d& x) { return sphere_distance(x); };
+  CurveOptions o;
+  const CurveResult smooth = curve_mesh(m, o);
+  o.long_edges.smooth_feature_share = 0;  // the rule on, as on a CAD export
+  const CurveResult rule = curve_mesh(m, o);
+  o.long_edges.ratio = 0;
+  const double fits_only = surface_error(curve_mesh(m, o).mesh, dist);
+  const double e_smooth = surface_error(smooth.mesh, dist), e_rule = surface_error(rule.mesh, dist);
+  MESSAGE(m.num_faces() << " triangles: smooth " << smooth.long_edges << " long edges, P4 " << e_smooth << "; rule on: "
+                        << rule.long_edges << " long edges, " << rule.long_edges_placed << " placed, P4 " << e_rule
+                        << "; fits only " << fits_only);
+  CHECK(smooth.long_edges == 0);
+  CHECK(rule.long_edges > 0);
+  CHECK(rule.long_edges_placed == 0);
+  CHECK(e_smooth <= 1.01 * fits_only);
+  CHECK(e_rule <= 1.01 * fits_only);
+  CHECK(fits_only < 1e-5);
+}
+
 TEST_CASE("PN triangles: corners kept, flat stays flat, a sphere octant within its cubic error") {
   Eigen::Matrix3d P, N;
   P << 0, 0, 0, 2, 0, 0, 0, 1, 0;
