@@ -41,20 +41,12 @@ double largest_angle_deg(const Mesh& mesh, int f) {
   return largest;
 }
 
-/// True when face f's height over its longest edge is below that of an isosceles cap whose apex
-/// angle is cap_deg: its corners are nearly collinear (a cap, or a needle).
-bool thin_face(const Mesh& mesh, int f, double cap_deg) {
-  const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
-  const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
-  const double height = (b - a).cross(c - a).norm() / longest;
-  return height < 0.5 * std::tan((180.0 - cap_deg) / 360.0 * std::numbers::pi) * longest;
-}
-
 /// How far face f's normal can be trusted.
 enum class FaceNormal : char {
   reliable,
   cap,     ///< a cap (largest angle above cap_deg) whose every edge neighbour contradicts its normal
-  needle,  ///< a thin face, not a cap, whose neighbours across both long sides contradict it
+  needle,  ///< a thin face (height over longest side below a cap's), not a cap, whose neighbours
+           ///< across both long sides contradict it
 };
 
 /// Whether face f's corners fix its normal. A cap's or a needle's corners are nearly collinear:
@@ -65,11 +57,13 @@ enum class FaceNormal : char {
 /// marching-tetrahedra torus at grid 24 pairs needles 0.2 long and 1e-3 wide, each tilted 23
 /// degrees from both its long neighbours and within 2 of the face beyond its short side.
 FaceNormal face_normal_trust(const Mesh& mesh, const Topology& T, int f, double cap_deg, double tilt_deg) {
-  const bool cap = largest_angle_deg(mesh, f) > cap_deg;
-  if (!cap && !thin_face(mesh, f, cap_deg)) return FaceNormal::reliable;
   const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
   const double side[3] = {(b - a).norm(), (c - b).norm(), (a - c).norm()};  // side j: corners j, j + 1
   const double longest = std::max({side[0], side[1], side[2]});
+  // Thin: its height over its longest side below an isosceles cap's whose apex angle is cap_deg.
+  const bool thin = (b - a).cross(c - a).norm() / longest < 0.5 * std::tan((180.0 - cap_deg) / 360.0 * std::numbers::pi) * longest;
+  const bool cap = largest_angle_deg(mesh, f) > cap_deg;
+  if (!cap && !thin) return FaceNormal::reliable;
   for (int j = 0; j < 3; ++j) {
     if (!cap && side[j] < 0.5 * longest) continue;
     const auto& ef = T.edge_faces[T.FE(f, j)];

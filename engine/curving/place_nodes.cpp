@@ -73,10 +73,9 @@ int feature_valence(const Topology& T, const Features& feat, int v) {
 /// - on a one-edge curve unless both corners join three curves or more (a CAD face's corner, not a
 ///   scan's noise crease turning);
 /// - where the projections do not converge or move it further than 0.1% of the edge length from a
-///   fitted curve (with 1%, T20 at d/20 went 4.4e-3 -> 8.7e-3: coarse fits cross off the
-///   curve; shared meshes unchanged either way), 5% from a
-///   one-edge chord (an arc of 23 degrees per edge: with a quarter, scans' elements invalid
-///   before repair tripled).
+///   fitted curve (with 1%, T20 at d/20 went 4.4e-3 -> 8.7e-3: coarse fits cross off the curve;
+///   shared meshes unchanged either way), 5% from a one-edge chord (an arc of 23 degrees per
+///   edge: with a quarter, scans' elements invalid before repair tripled).
 Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
                                    const CurveFitResult& curves, const EdgeContext& ctx, int e, double t) {
   const Eigen::Vector3d line = curve_edge_point(mesh, T, curves, e, t);
