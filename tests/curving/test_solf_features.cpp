@@ -909,6 +909,7 @@ TEST_CASE("long edges of CAD exports take their PN triangle; gradual meshes have
     MESSAGE(std::string(name) << " P4: " << r.long_edges << " long edges, " << r.long_edges_placed << " placed on PN curves, "
                  << r.long_faces << " PN faces; deviation " << r.deviation.max_relative << " (fits only: "
                  << fits_only.deviation.max_relative << ")");
+    CHECK(!r.smooth_surface);  // feature curves and flat faces: a CAD export
     CHECK(r.long_faces > 0);
     CHECK(fits_only.long_faces == 0);
     CHECK(r.validity.invalid_after == 0);
@@ -954,6 +955,7 @@ TEST_CASE("a smooth mesh graded abruptly: its long edges' end fits agree and kee
   MESSAGE(m.num_faces() << " triangles: smooth " << smooth.long_edges << " long edges, P4 " << e_smooth << "; rule on: "
                         << rule.long_edges << " long edges, " << rule.long_edges_placed << " placed, P4 " << e_rule
                         << "; fits only " << fits_only);
+  CHECK(smooth.smooth_surface);
   CHECK(smooth.long_edges == 0);
   CHECK(rule.long_edges > 0);
   CHECK(rule.long_edges_placed == 0);

@@ -165,9 +165,11 @@ def check_isosurface_needles(hoc, work):
             continue
         c, lin, m = run
         hist = c["fits"]["degree_histogram"]
-        check(int(hist.get("0", 0)) == 0 and c["validity"]["invalid_after"] == 0 and c["placement"]["long_edges"] == 0,
-              "%s: %s fits of degree 0 (straight), %d invalid after repair, %d long edges (smooth: none)" % (
-                  name, hist.get("0", 0), c["validity"]["invalid_after"], c["placement"]["long_edges"]))
+        check(int(hist.get("0", 0)) == 0 and c["validity"]["invalid_after"] == 0 and c["placement"]["smooth_surface"] and
+              c["placement"]["long_edges"] == 0,
+              "%s: %s fits of degree 0 (straight), %d invalid after repair, smooth surface %s, %d long edges (smooth: none)" % (
+                  name, hist.get("0", 0), c["validity"]["invalid_after"], c["placement"]["smooth_surface"],
+                  c["placement"]["long_edges"]))
         check(m["max"] * gain <= lin["max"] and m["nonpositive_jacobian"] == 0 and m["watertight"],
               "%s: P4 %.3e, linear %.3e (%.0fx >= %dx; %d sharp edges, %d needles aligned), valid, watertight" % (
                   name, m["max"], lin["max"], lin["max"] / max(m["max"], 1e-300), gain,
