@@ -41,3 +41,11 @@ full_length() {
   range=$(header_value "$1" Content-Range)
   if [ -n "$range" ]; then echo "${range##*/}"; else header_value "$1" Content-Length; fi
 }
+
+# body_complete FILE HEADERS: true if FILE holds the full length announced in the curl -D dump
+# HEADERS (always, if it announced none: a chunked answer's end is curl's to check, exit 18).
+body_complete() {
+  local length
+  length=$(full_length "$2")
+  [ -z "$length" ] || [ "$(stat -c %s "$1")" = "$length" ]
+}

@@ -26,8 +26,7 @@ for attempt in $(seq "${HOCURVE_DOWNLOAD_ATTEMPTS:-5}"); do
   if [ "$rc" = 0 ] && [ "$status" -ge 300 ]; then f=$(mktemp); mv "$tmp" "$f"; fail_with_problem "$f" "$status"; fi
   if [ "$status" -ge 200 ]; then etag=$(header_value "$hdr" ETag); fi
   if [ -z "$etag" ]; then : > "$tmp"; fi  # no version to resume against
-  length=$(full_length "$hdr")
-  if [ "$rc" = 0 ] && { [ -z "$length" ] || [ "$(stat -c %s "$tmp")" = "$length" ]; }; then
+  if [ "$rc" = 0 ] && body_complete "$tmp" "$hdr"; then
     mv "$tmp" "$2"
     echo "wrote $2" >&2
     exit 0

@@ -11,6 +11,10 @@ As a module:
 Downloads go to OUT.part, renamed to OUT only when complete. A dropped connection or a short
 read is resumed (Range: bytes=N- with If-Range: the first answer's ETag), up to
 DOWNLOAD_ATTEMPTS tries with backoff; a 200 to a resumed request (the result changed) starts over.
+Every other answer is checked whole too: one that ends before its Content-Length (or, chunked,
+before its last chunk) raises ProblemError (status 0, "Incomplete response"). The synchronous
+curve() is a POST and is not resumed: its dest (also written as dest.part, renamed when complete)
+is then not created; retry, or use submit/wait/download, whose download resumes.
 
 As a program:
     hocurve_client.py --url http://127.0.0.1:8080 submit mesh.stl --order 4 --wait -o mesh_p4.msh
@@ -20,6 +24,7 @@ Errors are RFC 9457 problem details; the CLI prints their title and detail and e
 import argparse
 import errno
 import http.client
+import io
 import json
 import os
 import sys
@@ -85,13 +90,28 @@ class Client:
         with resp:
             if stream_to is not None:
                 with _part_file(stream_to) as f:
-                    total = _copy(resp, f)
+                    total = self._receive_whole(resp, f, method, stream_to)
                 return resp.status, dict(resp.headers), total
-            data = resp.read()
+            buf = io.BytesIO()
+            self._receive_whole(resp, buf, method)
+            data = buf.getvalue()
             ctype = resp.headers.get("Content-Type", "")
             if data and "json" in ctype:
                 return resp.status, dict(resp.headers), json.loads(data)
             return resp.status, dict(resp.headers), data
+
+    @staticmethod
+    def _receive_whole(resp, f, method, dest=None):
+        """Copies the body of `resp` to `f`; returns its length, or raises ProblemError (status 0)
+        if the answer ended early (not resumed: only download() does that)."""
+        failure = _receive(resp, f)
+        if failure is None:
+            return f.tell()
+        where = "%s not written; " % dest if dest else ""
+        advice = ("a POST is not resumed: retry, or use the job API (submit --wait -o OUT), whose download resumes"
+                  if method == "POST" else "retry")
+        raise ProblemError(0, {"title": "Incomplete response", "detail": "%s %s: the answer ended early (%s); %s%s" % (
+            method, resp.url, failure, where, advice)})
 
     # -- API -----------------------------------------------------------------------------------
     def health(self):
@@ -197,14 +217,7 @@ class Client:
             if resp.status != 206 or not resume:
                 f.seek(0)
                 f.truncate()
-            etag, size = resp.headers.get("ETag"), _full_length(resp)
-            try:
-                _copy(resp, f)
-            except (ConnectionError, TimeoutError, http.client.HTTPException) as e:  # not a local write error
-                return etag, str(e) or type(e).__name__
-        if size is not None and f.tell() != size:
-            return etag, "short read: %d of %d bytes" % (f.tell(), size)
-        return etag, None
+            return resp.headers.get("ETag"), _receive(resp, f)
 
     def stats(self, job_id):
         return self._request("GET", "/v1/jobs/%s/stats" % urllib.parse.quote(job_id, safe=""))[2]
@@ -248,6 +261,25 @@ def _copy(resp, f):
             return total
         f.write(chunk)
         total += len(chunk)
+
+
+def _receive(resp, f):
+    """Copies a body to the end of `f`; returns None once f holds the answer's full length (or
+    the whole of a chunked body), else why not with the byte counts, e.g. "short read: 29621 of
+    89807 bytes". Transport failures are returned; a local write error raises."""
+    size = _full_length(resp)
+    try:
+        _copy(resp, f)
+    except http.client.IncompleteRead as e:  # chunked: the connection ended before the last chunk
+        f.write(e.partial)
+        why = "no last chunk"
+    except (ConnectionError, TimeoutError, http.client.HTTPException) as e:
+        why = str(e) or type(e).__name__
+    else:
+        if size is None or f.tell() == size:
+            return None
+        why = "short read"
+    return "%s: %d%s bytes" % (why, f.tell(), "" if size is None else " of %d" % size)
 
 
 def _full_length(resp):

@@ -2,6 +2,7 @@
 """hocurved end-to-end: every endpoint, bad input, idempotency, pagination, auth, and both clients,
 against a real daemon on an ephemeral loopback port. Usage: test_server_api.py BUILD_DIR"""
 import http.client
+import http.server
 import json
 import os
 import re
@@ -115,6 +116,23 @@ class CuttingProxy:
             except OSError:
                 pass
             s.close()
+
+
+class ChunkedCut(http.server.BaseHTTPRequestHandler):
+    """Answers every POST 200 with a chunked body that ends without its last chunk (a connection
+    dropped mid-answer when the length is not announced)."""
+    protocol_version = "HTTP/1.1"
+
+    def do_POST(self):
+        self.rfile.read(int(self.headers["Content-Length"]))
+        self.send_response(200)
+        self.send_header("Transfer-Encoding", "chunked")
+        self.end_headers()
+        self.wfile.write(b"b\r\n$MeshFormat\r\n")
+        self.close_connection = True
+
+    def log_message(self, *args):
+        pass
 
 
 def binary_stl(triangles, declared=None):
@@ -734,6 +752,59 @@ class ServerApi(unittest.TestCase):
             cutter.close()
         self.assertIn("after 3 attempts", str(e.exception))
         self.assertFalse(os.path.exists(out) or os.path.exists(out + ".part"))
+
+    def sync_clients(self, url, out):
+        """Client.curve(SPHERE, order 2, dest=out) and (if curl is installed) curve_sync.sh against
+        `url`: per client, (None, the bytes it wrote at out) or (its error text, None); out and
+        out.part are removed after each, and no out.part may be left."""
+        def python():
+            try:
+                Client(url, timeout=30).curve(SPHERE, {"order": 2}, dest=out)
+            except ProblemError as e:
+                return str(e)
+
+        def curl():
+            r = subprocess.run(["bash", os.path.join(D.SOURCE_DIR, "clients", "curl", "curve_sync.sh"), SPHERE, out,
+                                "order=2"], capture_output=True, text=True, timeout=60, env=dict(os.environ, HOCURVE_URL=url))
+            self.assertIn(r.returncode, (0, 1), r.stderr)
+            return r.stderr if r.returncode else None
+
+        results = []
+        for run in [python] + ([curl] if shutil.which("curl") else []):
+            err = run()
+            self.assertFalse(os.path.exists(out + ".part"))
+            results.append((err, None if err else data(out)))
+            if os.path.exists(out):
+                os.remove(out)
+        return results
+
+    def test_sync_clients_refuse_a_cut_answer(self):
+        # POST /v1/curve is not resumed: an answer cut short (fewer bytes than its Content-Length, or
+        # a chunked one without its last chunk) is an error naming the counts, and nothing is saved.
+        full = raw(self.d.url, "POST", "/v1/curve?order=2", MESH_SPHERE, {"Content-Type": "model/stl"})[2]
+        out = os.path.join(self.tmp, "sync.msh")
+        whole = self.sync_clients(self.d.url, out)
+        self.assertEqual(whole, [(None, full)] * len(whole))
+        proxy = CuttingProxy(self.d.url, b"/v1/curve", keep=len(full) // 3, cuts=3)
+        try:
+            cut = self.sync_clients(proxy.url, out)
+            with self.assertRaises(ProblemError) as e:  # the bytes-returning form too
+                Client(proxy.url, timeout=30).curve(SPHERE, {"order": 2})
+        finally:
+            proxy.close()
+        self.assertRegex(str(e.exception), r"the answer ended early \(short read: \d+ of %d bytes\); a POST" % len(full))
+        server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), ChunkedCut)
+        threading.Thread(target=server.serve_forever, daemon=True).start()
+        try:
+            chunked = self.sync_clients("http://127.0.0.1:%d" % server.server_address[1], out)
+        finally:
+            server.shutdown()
+            server.server_close()
+        for (err, got), length in [(c, " of %d" % len(full)) for c in cut] + [(c, "") for c in chunked]:
+            self.assertIsNone(got, err)
+            self.assertRegex(err, r"POST http://127\.0\.0\.1:\d+/v1/curve\?order=2: the answer ended early \([^)]*\b\d+%s "
+                                  r"bytes\); %s not written; a POST is not resumed: retry, or use the job API" %
+                             (length, re.escape(out)))
 
     def test_python_cli_local_errors(self):
         # A missing mesh, an output in a missing directory or under a file: one `error:` line, exit 1.
