@@ -49,6 +49,7 @@ FeatureMarks mark_features(const Mesh& m, const Topology& T, const DecimateOptio
     fo.corner_angle_deg = opt.corner_angle_deg;
     fo.entity_borders = opt.entity_borders;
     fo.fillet_max_deg = 0;  // as feature_options() (lift.cpp) says why
+    fo.min_dangling_edges = 0;  // short curves are dropped below, by this decimation's own rules
     Features f = detect_features(m, T, fo);
     fm.edge = std::move(f.edge_feature);
     fm.corner = std::move(f.vertex_corner);

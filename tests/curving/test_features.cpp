@@ -492,10 +492,11 @@ TEST_CASE("bad options are refused") {
 TEST_CASE("pruning short dangling sharp curves (scanned mesh)") {
   const Mesh m = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/bunny_closed.obj").mesh;
   const Topology T = build_topology(m.F, m.num_vertices());
-  const Features plain = detect_features(m, T);
-  FeatureOptions opt;
-  opt.min_dangling_edges = 3;
-  const Features pruned = detect_features(m, T, opt);
+  FeatureOptions keep;
+  keep.min_dangling_edges = 0;
+  const Features plain = detect_features(m, T, keep);
+  const Features pruned = detect_features(m, T);  // the default prunes curves under 3 edges
+  CHECK(FeatureOptions{}.min_dangling_edges == 3);
   std::printf("bunny_closed: %lld sharp edges, %zu curves; pruning dangling < 3 edges: %lld edges, %zu curves left\n",
               plain.sharp_edges, plain.curves.size(), pruned.feature_edges, pruned.curves.size());
   CHECK(pruned.pruned_edges > 0);
@@ -514,6 +515,7 @@ TEST_CASE("pruning short dangling sharp curves (scanned mesh)") {
       CHECK(valence[c.back()] != 1);
     }
   // CAD features are not dangling: the cube keeps its 12 curves; boundaries are never pruned.
+  FeatureOptions opt;
   opt.min_dangling_edges = 1000;
   CHECK(detect(cube(3), opt).feature_edges == 36);
   CHECK(detect(cube(3), opt).pruned_edges == 0);

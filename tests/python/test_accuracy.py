@@ -156,19 +156,21 @@ def check_isosurface_needles(hoc, work):
       below linear).
     - Grid 24 pairs needles tilted 23 degrees from their long neighbours: the kink test, in the
       frame of their own normals, made two false feature curves (P4 2.7e-3). Needles whose long
-      neighbours contradict them take the frame of the normals around (as caps): one left, 7.5e-4
-      (>= 10x below linear)."""
-    for grid, gain in ((32, 1000), (24, 10)):
+      neighbours contradict them take the frame of the normals around (as caps): one left, 7.5e-4.
+    - That one, and grid 16's seven (edges of 36-45 degrees on a coarse tube), are curves of one
+      or two edges with a free end; dropped (FeatureOptions::min_dangling_edges = 3): grid 24
+      1.8e-5 (>= 300x below linear), grid 16 8.5e-5 (>= 100x; was 1.9e-2)."""
+    for grid, gain in ((32, 1000), (24, 300), (16, 100)):
         name = "iso-surface torus grid %d" % grid
         run = isosurface_p4(hoc, work, "torus", grid, name)
         if run is None:
             continue
         c, lin, m = run
         hist = c["fits"]["degree_histogram"]
-        check(int(hist.get("0", 0)) == 0 and c["validity"]["invalid_after"] == 0 and c["placement"]["smooth_surface"] and
+        check(int(hist.get("0", 0)) == 0 and c["validity"]["invalid_after"] == 0 and c["placement"].get("smooth_surface") and
               c["placement"]["long_edges"] == 0,
               "%s: %s fits of degree 0 (straight), %d invalid after repair, smooth surface %s, %d long edges (smooth: none)" % (
-                  name, hist.get("0", 0), c["validity"]["invalid_after"], c["placement"]["smooth_surface"],
+                  name, hist.get("0", 0), c["validity"]["invalid_after"], c["placement"].get("smooth_surface"),
                   c["placement"]["long_edges"]))
         check(m["max"] * gain <= lin["max"] and m["nonpositive_jacobian"] == 0 and m["watertight"],
               "%s: P4 %.3e, linear %.3e (%.0fx >= %dx; %d sharp edges, %d needles aligned), valid, watertight" % (
@@ -258,8 +260,13 @@ def main(argv):
     check_curve_sides(hoc, work)
     # (shape, size, strict): strict = the brief's targets (>= 1000x below linear, <= 10x Gmsh's
     # exact-CAD P4); the coarse torus (h = r/2) only has to beat the linear input by 4x.
-    cases = [("sphere", 0.1, True), ("torus", 0.2, False)]
-    for name, size, strict in cases:
+    # (shape, size, gain, ref_factor): P4 at least gain x below linear and, where ref_factor is
+    # given, within ref_factor x Gmsh's exact-CAD P4 (the brief's targets for the sphere: 1000x,
+    # 10x); the coarse torus (h = r/2) only has to beat the linear input by 4x; the coarse
+    # ellipsoid (226 triangles) had two one-edge false curves at its tips and was 2x below linear
+    # (FeatureOptions::min_dangling_edges: 115x).
+    cases = [("sphere", 0.1, 1000, 10), ("torus", 0.2, 4, None), ("ellipsoid", 0.3, 50, None)]
+    for name, size, gain, ref_factor in cases:
         stl = shapes.make_stl(name, size, work)
         h = shapes.size_value(name, size)
         dist = me.distance_function(name, stl)
@@ -288,14 +295,11 @@ def main(argv):
             name, m["edges_not_twice"]))
         check(m["nonpositive_jacobian"] == 0,
               "%s: %d elements with non-positive sampled Jacobian" % (name, m["nonpositive_jacobian"]))
-        if strict:
-            check(m["max"] * 1000 <= lin["max"], "%s: P4 error %.3e at least 1000x below linear %.3e" % (
-                name, m["max"], lin["max"]))
-            check(m["max"] <= 10 * ref["max"], "%s: P4 error %.3e within 10x of Gmsh CAD P4 %.3e" % (
-                name, m["max"], ref["max"]))
-        else:
-            check(m["max"] * 4 <= lin["max"], "%s: P4 error %.3e at least 4x below linear %.3e" % (
-                name, m["max"], lin["max"]))
+        check(m["max"] * gain <= lin["max"], "%s: P4 error %.3e at least %gx below linear %.3e" % (
+            name, m["max"], gain, lin["max"]))
+        if ref_factor:
+            check(m["max"] <= ref_factor * ref["max"], "%s: P4 error %.3e within %gx of Gmsh CAD P4 %.3e" % (
+                name, m["max"], ref_factor, ref["max"]))
     if failures:
         print("test_accuracy: %d check(s) failed (files kept in %s)" % (len(failures), work))
         return 1
