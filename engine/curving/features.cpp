@@ -1,6 +1,7 @@
 #include "engine/curving/features.hpp"
 
 #include "engine/core/error.hpp"
+#include "engine/curving/apex_fit.hpp"
 #include "engine/curving/stencil.hpp"
 #include "engine/curving/tangent_junctions.hpp"
 
@@ -367,6 +368,57 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
     R.pruned_edges += pruned;
     R.feature_edges -= pruned;
     chain_all();
+  }
+  // --- 5. coarse cone apexes ------------------------------------------------------------------
+  // Where a cone's apex has a fan of three to six triangles, its edges turn by 40-140 degrees and
+  // read as sharp; so do some edges of the next ring. Sharp edges whose curves stay within the
+  // apex_rings of a vertex that is a cone point when the features are ignored, and whose rings
+  // fit a cone model, are the apex's, not curves: they are dropped and the apex gets its cone fit.
+  if (opt.cone_points && R.feature_edges > 0) {
+    const std::vector<char> apex = cone_points(mesh, T, {}, opt.cone);
+    long long dropped = 0;
+    std::vector<int> near, stack, component;
+    std::vector<char> in_near(nv, 0), seen(ne, 0);
+    for (int v = 0; v < nv; ++v) {
+      if (!apex[v] || !R.vertex_feature[v]) continue;
+      near.assign(1, v);
+      in_near[v] = 1;
+      for (int ring = 0, begin = 0; ring < opt.apex_rings; ++ring) {
+        const int end = static_cast<int>(near.size());
+        for (int i = begin; i < end; ++i)
+          for (auto [b, e] = T.edges_of(near[i]); b != e; ++b)
+            if (const int u = T.other(*b, near[i]); !in_near[u]) in_near[u] = 1, near.push_back(u);
+        begin = end;
+      }
+      // The feature edges joined to v: all sharp and within those rings?
+      bool local = true;
+      component.clear();
+      stack.assign(1, v);
+      std::vector<int> reached{v};
+      while (!stack.empty() && local) {
+        const int x = stack.back();
+        stack.pop_back();
+        for (auto [b, e] = T.edges_of(x); b != e; ++b) {
+          if (!R.edge_feature[*b] || seen[*b]) continue;
+          seen[*b] = 1;
+          component.push_back(*b);
+          const int u = T.other(*b, x);
+          if (!only_sharp[*b] || !in_near[u]) local = false;
+          if (std::find(reached.begin(), reached.end(), u) == reached.end()) reached.push_back(u), stack.push_back(u);
+        }
+      }
+      for (int e : component) seen[e] = 0;
+      for (int u : near) in_near[u] = 0;
+      // ... and the rings a cone (a small pyramid's ridges two edges long are features).
+      if (!local || !fit_cone_model(mesh, T, v, std::vector<int>(near.begin() + 1, near.end()), opt.apex_max_residual).apex)
+        continue;
+      for (int e : component) R.edge_feature[e] = 0, ++dropped;
+    }
+    if (dropped > 0) {
+      R.apex_edges += dropped;
+      R.feature_edges -= dropped;
+      chain_all();
+    }
   }
   R.vertex_cone = opt.cone_points ? cone_points(mesh, T, R.vertex_feature, opt.cone)
                                   : std::vector<char>(nv, 0);

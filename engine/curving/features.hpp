@@ -101,6 +101,12 @@ struct FeatureOptions {
   int min_dangling_edges = 3;
   /// Mark cone points (cone_points.hpp): the fits treat them as walls, like feature curves.
   bool cone_points = true;
+  /// Sharp edges joined to a vertex that is a cone point when the features are ignored, all
+  /// within this many rings of it, are a coarse apex's fan, not feature curves (features.cpp,
+  /// step 5). 3: a Gmsh cone at h = 0.05 (4 triangles round the apex) has sharp edges 3 rings out.
+  int apex_rings = 3;
+  /// ... and those rings must fit a cone model (fit_cone_model) within this x h, RMS.
+  double apex_max_residual = 0.01;
   ConeOptions cone;
 };
 
@@ -121,6 +127,7 @@ struct Features {
   long long feature_edges = 0;        ///< edges with edge_feature == 1 (an edge may be of several kinds above)
   int closed_curves = 0;              ///< curves that are closed loops without corners
   long long pruned_edges = 0;         ///< sharp edges dropped by min_dangling_edges (still counted in sharp_edges)
+  long long apex_edges = 0;           ///< sharp edges dropped round coarse cone apexes (still counted in sharp_edges)
   long long kink_edges = 0;           ///< sharp edges accepted by the kink test (below angle_deg, or of a cap)
   long long junction_edges = 0;       ///< tangent junction edges (FeatureOptions::tangent_junctions)
 };

@@ -1,5 +1,7 @@
 #include "engine/curving/local_fit.hpp"
 
+#include "engine/curving/apex_fit.hpp"
+
 #include "engine/core/stopwatch.hpp"
 
 #include <Eigen/Cholesky>
@@ -324,6 +326,7 @@ Eigen::Vector3d LocalFit::point(double u, double v, double z) const {
 
 Eigen::Vector3d LocalFit::project(const Eigen::Vector3d& x) const {
   if (identity) return x;
+  if (apex) return apex_project(x);
   const Eigen::Vector3d c = coords(x);
   return point(c[0], c[1], height(c[0], c[1]));
 }
@@ -624,11 +627,10 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
 LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
                    const SupportPoints* support, const std::vector<int>& support_start,
                    const std::vector<int>& support_index, const FitOptions& opt, FitScratch& scratch) {
-  if (W.is_cone(W.wedge_vertex[w])) {  // no polynomial fits a cone's apex: the straight triangles
-    LocalFit apex;
-    apex.o = mesh.V.row(W.wedge_vertex[w]).transpose();
-    apex.identity = true;
+  if (W.is_cone(W.wedge_vertex[w])) {  // no polynomial fits a cone's apex: a cone model does
+    LocalFit apex = fit_apex(mesh, T, W, w, opt);
     apex.requested_degree = p;
+    if (apex.apex) apex.degree = p;
     return apex;
   }
   LocalFit fit = fit_wedge_unchecked(mesh, T, W, w, p, support, support_start, support_index, opt, scratch);
@@ -1049,6 +1051,7 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
     }
   });
   R.agreeing_fits = adopt_agreeing_fits(mesh, T, W, p, support, sstart, sindex, opt, gate_refused, R.fits);
+  R.apex_fits = share_apex_fits(T, W, opt, R.fits);
   R.degree_histogram.assign(p + 1, 0);
   double pts = 0;
   for (const auto& f : R.fits) {

@@ -195,6 +195,17 @@ struct FitOptions {
   bool curve_reference_circle = true;
   /// ... where the curve's points lie within this x h of that circle (curve_fit.cpp).
   double circle_tolerance = 1e-3;
+  /// Cone points (Features::vertex_cone) fit a cone model (apex_fit.hpp) to the vertices within
+  /// apex_rings, kept where its RMS residual is below apex_max_residual x h (else the apex keeps
+  /// its straight triangles), and given to the wedges within apex_share_rings. Why: no height
+  /// function fits round an apex, and the rings next to it wrap round the axis within an edge
+  /// or two. Measured P4 on Gmsh's cone (r = 0.5, height 1), h = 0.1 / 0.05 / 0.025: 3.7e-2 /
+  /// 1.3e-2 / 8.0e-3 (the linear error: straight apex fans) -> 2.3e-3 / 8.2e-4 / 4.9e-4 (Gmsh's P4
+  /// from the exact CAD: 9.7e-3 / 2.2e-3 / 2.0e-3); sharing 1 ring: 5.2e-3 / 1.3e-3 / 6.6e-4, 3
+  /// rings: as 2.
+  int apex_rings = 3;
+  double apex_max_residual = 0.01;
+  int apex_share_rings = 2;
 };
 
 /// The sanity bound of fits on a face with corners a, b, c: how far a fit may move a point of it
@@ -258,6 +269,19 @@ struct LocalFit {
   Eigen::Vector3d point(double u, double v, double z) const;
   /// The fitted surface point above x (x moved along the reference's normal onto the fit).
   Eigen::Vector3d project(const Eigen::Vector3d& x) const;
+  /// A cone point's model instead of a height function (apex_fit.hpp): o the apex, n the axis;
+  /// heights z / h = (rho / h) g(phi) + (rho / h)^2 k(phi) at distance rho from the axis and
+  /// azimuth phi from t1, g = c0 + c1 cos phi + c2 sin phi + c3 cos 2 phi + c4 sin 2 phi,
+  /// k = c5 + c6 cos phi + c7 sin phi (c holds the first 3, 5 or 8).
+  bool apex = false;
+  /// Point of the apex model nearest x in x's meridian half-plane (apex_fit.cpp).
+  Eigen::Vector3d apex_project(const Eigen::Vector3d& x) const;
+  /// Point of the apex model at barycentric xi of the triangle with corners P (rows): the
+  /// corners' distances from the axis and azimuths interpolated (a corner at the apex adds no
+  /// azimuth), then the model's height there. Why not the projection of the straight point: the
+  /// chord of a fan of three triangles passes near the axis, and its projected points crowd
+  /// toward the ends of the arc (P4 elements there inverted).
+  Eigen::Vector3d apex_point(const Eigen::Matrix3d& P, const Eigen::Vector3d& xi) const;
 };
 
 /// The reference surface of a fit (LocalFit::k1, k2 with their directions t1, t2 = n x t1).
@@ -319,6 +343,7 @@ struct FitResult {
   long long downgraded = 0;               ///< fits below the requested degree
   long long with_support = 0;             ///< fits that used support points
   long long agreeing_fits = 0;            ///< one-sided wedges given a quadric or torus fit by one_sided_quadric_agreement
+  long long apex_fits = 0;                ///< wedges on a cone point's model: its own and its neighbours' (share_apex_fits)
   double mean_points = 0;
   double seconds = 0;
 };

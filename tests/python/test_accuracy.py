@@ -230,9 +230,12 @@ def check_curve_sides(hoc, work):
     - A cylinder crossed by a hole (2,874 triangles): its intersection curve turns away from any
       circle, and curve fits reaching three edges each way missed it by 4.9e-5 (13x Gmsh's CAD P4);
       on a narrower stencil 2.1e-5 (300x below linear). Its edges now go where the two surface
-      fits cross: P4 at or below Gmsh's CAD P4 and >= 3000x below linear (6.5e-7, 10,000x)."""
+      fits cross: P4 at or below Gmsh's CAD P4 and >= 3000x below linear (6.5e-7, 10,000x).
+    - A cone (674 triangles) with 3 triangles round its apex, whose edges read as short feature
+      curves: the apex fan stayed straight (P4 = linear, 3.7e-2; Gmsh's CAD P4 9.7e-3). Now a cone
+      model fits round the apex: P4 at or below Gmsh's CAD P4 and >= 10x below linear (2.3e-3, 16x)."""
     gmsh = shapes.gmsh_init()
-    for name, gain, ref_factor in (("cutsphere", 3e4, 1), ("crosshole", 3000, 1)):
+    for name, gain, ref_factor in (("cutsphere", 3e4, 1), ("crosshole", 3000, 1), ("cone", 10, 1)):
         stl, ref_path = cad_stl_and_ref(gmsh, name, 0.1, work)
         out = os.path.join(work, name + "_p4.msh")
         r = accuracy.run_hocurve(hoc, stl, out, 4, out + ".json", timeout=300)
