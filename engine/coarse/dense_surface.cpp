@@ -30,7 +30,7 @@ DenseSurface build_dense_surface(const Mesh& fine, const DenseSurfaceOptions& op
   refit_band_wedges(fine, S.T, S.W, S.features, opt.degree, opt.fit, S.fits.fits);  // as curve_mesh does
   S.planar_anchor = planar_patch_faces(fine, S.T, opt.planar);
   S.long_edges = opt.long_edges;
-  if (smooth_surface(S.features.feature_edges, S.T.num_edges(), S.planar_anchor, S.long_edges)) S.long_edges.ratio = 0;
+  if (smooth_surface(S.features, S.T, S.planar_anchor, S.long_edges)) S.long_edges.ratio = 0;
   S.long_face = long_edges(fine, S.T, S.W, S.fits.fits, S.long_edges).face;
   S.curves = fit_feature_curves(fine, S.T, S.features, opt.degree, opt.fit);
   S.max_lift = opt.max_lift;

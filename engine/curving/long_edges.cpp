@@ -5,9 +5,11 @@
 
 namespace hocurve {
 
-bool smooth_surface(long long feature_edges, long long edges, const std::vector<int>& planar,
+bool smooth_surface(const Features& features, const Topology& T, const std::vector<int>& planar,
                     const LongEdgeOptions& opt) {
-  return feature_edges < opt.smooth_feature_share * static_cast<double>(edges) &&
+  long long creases = 0;
+  for (int e = 0; e < T.num_edges(); ++e) creases += features.edge_feature[e] && T.edge_faces[e].size() == 2;
+  return creases < opt.smooth_feature_share * static_cast<double>(T.num_edges()) &&
          std::none_of(planar.begin(), planar.end(), [](int anchor) { return anchor >= 0; });
 }
 

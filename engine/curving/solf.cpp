@@ -117,7 +117,7 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     progress("placement", 0.7);
     const std::vector<int> planar = planar_patch_faces(mesh, T, opt.planar, &R.features.edge_feature);
     LongEdgeOptions long_opt = opt.long_edges;
-    R.smooth_surface = smooth_surface(R.features.feature_edges, R.edges, planar, long_opt);
+    R.smooth_surface = smooth_surface(R.features, T, planar, long_opt);
     if (R.smooth_surface) long_opt.ratio = 0;
     const LongEdgeResult long_edge = p >= 2 ? long_edges(mesh, T, W, R.fits.fits, long_opt) : LongEdgeResult{};
     PlacementResult P = place_nodes(mesh, T, W, R.fits.fits, &R.features,
