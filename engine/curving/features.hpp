@@ -103,8 +103,10 @@ struct FeatureOptions {
   bool cone_points = true;
   /// Sharp edges joined to a vertex that is a cone point when the features are ignored, all
   /// within this many rings of it, are a coarse apex's fan, not feature curves (features.cpp,
-  /// step 5). 3: a Gmsh cone at h = 0.05 (4 triangles round the apex) has sharp edges 3 rings out.
-  int apex_rings = 3;
+  /// step 5). 4: Gmsh's cone (r = 0.5, height 1) at h = 0.05 has sharp edges 3 rings out, at
+  /// h = 0.3 (258 triangles) and a double cone at h = 0.08 4 rings out (P4 4.9e-2 / 2.0e-2, the
+  /// linear error, with 3 rings; 3.0e-3 / 1.7e-3 with 4).
+  int apex_rings = 4;
   /// ... and those rings must fit a cone model (fit_cone_model) within this x h, RMS.
   double apex_max_residual = 0.01;
   ConeOptions cone;

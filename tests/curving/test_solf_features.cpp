@@ -553,10 +553,11 @@ TEST_CASE("a Gmsh cone's apex, three to five triangles round it: its sharp fan i
   // Gmsh's cone (radius 0.5, height 1) puts 3-5 triangles round the apex: their edges turn by 40 to
   // 140 degrees, and a few edges of the next two rings by more than 35, so the apex was a corner of
   // short feature curves and its fan stayed straight: P4 = linear, 3.7e-2 / 1.3e-2 at h = 0.1 /
-  // 0.05 (Gmsh's P4 from the exact CAD: 9.7e-3 / 2.2e-3). Those edges all lie within three rings
+  // 0.05 (Gmsh's P4 from the exact CAD: 9.7e-3 / 2.2e-3). Those edges all lie within four rings
   // of a vertex that is a cone point once the features are ignored: they are dropped, and the
-  // apex's cone model, shared with two rings round it, places the nodes: 2.3e-3 / 8.2e-4.
-  for (double h : {0.1, 0.05}) {
+  // apex's cone model, shared with two rings round it, places the nodes: 2.3e-3 / 8.2e-4. At
+  // h = 0.3 (258 triangles, sharp edges four rings out) 4.9e-2 -> 3.0e-3.
+  for (double h : {0.3, 0.1, 0.05}) {
     Mesh m;
     {
       GmshSession gmsh_session;
