@@ -10,11 +10,19 @@ namespace hocurve {
 
 namespace {
 
-/// Basis of the apex model at (rho, phi) with n coefficients (LocalFit::apex_height).
+/// Basis of the apex model at (rho, phi), its first n columns (LocalFit::apex).
 void apex_row(double rho, double phi, int n, double* row) {
   const double c1 = std::cos(phi), s1 = std::sin(phi), c2 = std::cos(2 * phi), s2 = std::sin(2 * phi);
   const double all[8] = {rho, rho * c1, rho * s1, rho * c2, rho * s2, rho * rho, rho * rho * c1, rho * rho * s1};
   for (int j = 0; j < n; ++j) row[j] = all[j];
+}
+
+/// Slope g and curvature k of the model's ruling at azimuth phi (LocalFit::apex).
+void ruling(const Eigen::VectorXd& c, double phi, double& g, double& k) {
+  double row[8];
+  apex_row(1, phi, static_cast<int>(c.size()), row);
+  g = k = 0;
+  for (Eigen::Index j = 0; j < c.size(); ++j) (j < 5 ? g : k) += c[j] * row[j];
 }
 
 }  // namespace
@@ -25,10 +33,8 @@ Eigen::Vector3d LocalFit::apex_project(const Eigen::Vector3d& x) const {
   const Eigen::Vector3d r = d - z * n;
   const double rho = r.norm();
   if (!(rho > 1e-12)) return o;
-  double row[8];
-  apex_row(1, std::atan2(r.dot(t2), r.dot(t1)), static_cast<int>(c.size()), row);
-  double g = 0, k = 0;  // slope and curvature of the ruling at this azimuth
-  for (Eigen::Index j = 0; j < c.size(); ++j) (j < 5 ? g : k) += c[j] * row[j];
+  double g, k;
+  ruling(c, std::atan2(r.dot(t2), r.dot(t1)), g, k);
   // Onto the ruling in the meridian half-plane orthogonally (steep cones too), then the
   // curvature term at that distance.
   const double t = std::max((rho + g * z) / (1 + g * g), 0.0);
@@ -52,10 +58,8 @@ Eigen::Vector3d LocalFit::apex_point(const Eigen::Matrix3d& P, const Eigen::Vect
   }
   if (!(phi_weight > 0)) return o;
   phi /= phi_weight;
-  double row[8];
-  apex_row(1, phi, static_cast<int>(c.size()), row);
-  double g = 0, k = 0;
-  for (Eigen::Index j = 0; j < c.size(); ++j) (j < 5 ? g : k) += c[j] * row[j];
+  double g, k;
+  ruling(c, phi, g, k);
   return o + h * (rho * (std::cos(phi) * t1 + std::sin(phi) * t2) + (g * rho + k * rho * rho) * n);
 }
 

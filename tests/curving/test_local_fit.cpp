@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include "engine/core/topology.hpp"
+#include "engine/curving/apex_fit.hpp"
 #include "engine/curving/curve_fit.hpp"
 #include "engine/curving/features.hpp"
 #include "engine/curving/local_fit.hpp"
@@ -342,4 +343,46 @@ TEST_CASE("curve fits: a quarter circle of three edges between corners is fitted
   FitOptions polynomial;
   polynomial.curve_reference_circle = false;
   CHECK(arc_error(polynomial) > 1e-4);  // the cubic through three points of the arc
+}
+
+TEST_CASE("cone model: a tilted cone's apex, five triangles round it, is fitted exactly") {
+  // A cone (radius 1, height 2) five triangles round, rotated off every axis: the fan normal leans
+  // off the axis where the fan is uneven, and the model's axis must turn onto it.
+  Mesh m = cone_mesh(4, 5, 1.0, 2.0);
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()) *
+                             Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  const Eigen::Vector3d shift(0.3, -2, 5);
+  for (int v = 0; v < m.num_vertices(); ++v) m.V.row(v) = (R * m.V.row(v).transpose() + shift).transpose();
+  // Uneven fan: move one first-ring vertex round the cone by 25 degrees (still on it).
+  const Eigen::Vector3d apex = R * Eigen::Vector3d(0, 0, 2) + shift;
+  const Eigen::Vector3d axis = R * Eigen::Vector3d::UnitZ();
+  m.V.row(1) = (apex + Eigen::AngleAxisd(0.44, axis) * (m.V.row(1).transpose() - apex)).transpose();
+  const Topology T = build_topology(m.F, m.num_vertices());
+  std::vector<int> points;
+  for (int v = 1; v < m.num_vertices(); ++v)
+    if ((R.transpose() * (m.V.row(v).transpose() - shift)).z() > 1e-9) points.push_back(v);  // the side, not the base
+  const LocalFit fit = fit_cone_model(m, T, 0, points, 0.01);
+  REQUIRE(fit.apex);
+  CHECK(fit.residual < 1e-10);
+  CHECK(std::abs(std::abs(fit.n.dot(axis)) - 1) < 1e-10);
+  auto off_cone = [&](const Eigen::Vector3d& x) { return std::abs(cone_distance(R.transpose() * (x - shift), 1.0, 2.0)); };
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0, 1);
+  double worst_projection = 0, worst_point = 0;
+  for (int i = 0; i < 200; ++i) {
+    // A point on the cone's side, moved off it by up to 0.05: its projection lands on the cone.
+    const double phi = 2 * std::numbers::pi * u(rng), t = 0.05 + 0.9 * u(rng);
+    const Eigen::Vector3d on = R * Eigen::Vector3d(t * std::cos(phi), t * std::sin(phi), 2 * (1 - t)) + shift;
+    const Eigen::Vector3d off = on + 0.05 * (2 * u(rng) - 1) * (R * Eigen::Vector3d(std::cos(phi), std::sin(phi), 0.5));
+    worst_projection = std::max(worst_projection, off_cone(fit.project(off)));
+    // Points of the fan's faces by distance from the axis and azimuth: on the cone too.
+    const int f = static_cast<int>(u(rng) * 5);
+    Eigen::Matrix3d P;
+    for (int j = 0; j < 3; ++j) P.row(j) = m.V.row(m.F(f, j));
+    double a = u(rng), b = u(rng);
+    if (a + b > 1) a = 1 - a, b = 1 - b;
+    worst_point = std::max(worst_point, off_cone(fit.apex_point(P, Eigen::Vector3d(1 - a - b, a, b))));
+  }
+  CHECK(worst_projection < 1e-9);
+  CHECK(worst_point < 1e-9);
 }
