@@ -394,7 +394,6 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
       bool local = true;
       component.clear();
       stack.assign(1, v);
-      std::vector<int> reached{v};
       while (!stack.empty() && local) {
         const int x = stack.back();
         stack.pop_back();
@@ -404,7 +403,7 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
           component.push_back(*b);
           const int u = T.other(*b, x);
           if (!only_sharp[*b] || !in_near[u]) local = false;
-          if (std::find(reached.begin(), reached.end(), u) == reached.end()) reached.push_back(u), stack.push_back(u);
+          stack.push_back(u);  // its edges already seen are skipped: each edge is walked once
         }
       }
       for (int e : component) seen[e] = 0;

@@ -282,6 +282,11 @@ struct LocalFit {
   /// chord of a fan of three triangles passes near the axis, and its projected points crowd
   /// toward the ends of the arc (P4 elements there inverted).
   Eigen::Vector3d apex_point(const Eigen::Matrix3d& P, const Eigen::Vector3d& xi) const;
+  /// Where this fit puts the point at barycentric xi of the triangle with corners P, x being its
+  /// position so far: apex_point for an apex model, else project(x).
+  Eigen::Vector3d place(const Eigen::Matrix3d& P, const Eigen::Vector3d& xi, const Eigen::Vector3d& x) const {
+    return apex ? apex_point(P, xi) : project(x);
+  }
 };
 
 /// The reference surface of a fit (LocalFit::k1, k2 with their directions t1, t2 = n x t1).

@@ -24,18 +24,11 @@ Eigen::Vector3d blend_point(const Mesh& mesh, const Wedges& W, const std::vector
 
 Eigen::Vector3d blend_projection(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits, int f,
                                  const Eigen::Vector3d& xi, const Eigen::Vector3d& x) {
+  Eigen::Matrix3d P;
+  for (int i = 0; i < 3; ++i) P.row(i) = mesh.V.row(mesh.F(f, i));
   Eigen::Vector3d out = Eigen::Vector3d::Zero();
-  for (int j = 0; j < 3; ++j) {
-    if (xi[j] == 0.0) continue;
-    const LocalFit& fit = fits[W.corner_wedge(f, j)];
-    if (fit.apex) {
-      Eigen::Matrix3d P;
-      for (int i = 0; i < 3; ++i) P.row(i) = mesh.V.row(mesh.F(f, i));
-      out += xi[j] * fit.apex_point(P, xi);
-    } else {
-      out += xi[j] * fit.project(x);
-    }
-  }
+  for (int j = 0; j < 3; ++j)
+    if (xi[j] != 0.0) out += xi[j] * fits[W.corner_wedge(f, j)].place(P, xi, x);
   return out;
 }
 
