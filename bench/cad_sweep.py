@@ -31,6 +31,8 @@ from bench import measure_error as me  # noqa: E402
 from bench import shapes  # noqa: E402
 
 SHAPES = ["cone", "filletbox", "crosshole", "cutsphere", "halftorus", "capsule", "roundcyl"]
+# Since session 29, mostly for Gmsh's own sizes (--sizes default): coarse meshes of CAD quadrics.
+COARSE = ["tee", "drilledball", "frustum", "ellipsoid"]
 # Open surfaces (session 25): the solid's planar faces removed, their rims left as boundary curves.
 OPEN = ["hemisphere", "pipe", "quartertorus"]
 
@@ -62,6 +64,14 @@ def build(gmsh, name):
         cyl = occ.addCylinder(0, 0, 0, 0, 0, 1, 0.5)
         occ.synchronize()
         occ.fillet([cyl], [t for (_, t) in gmsh.model.getEntities(1) if gmsh.model.getType(1, t) == "Circle"], [0.12])
+    elif name == "tee":  # two cylinders fused: a saddle-shaped junction curve
+        occ.fuse([(3, occ.addCylinder(-1, 0, 0, 2, 0, 0, 0.3))], [(3, occ.addCylinder(0, 0, 0, 0, 0, 1, 0.2))])
+    elif name == "drilledball":  # a sphere with a hole through it
+        occ.cut([(3, occ.addSphere(0, 0, 0, 1))], [(3, occ.addCylinder(0, 0, -2, 0, 0, 4, 0.3))])
+    elif name == "frustum":  # a truncated cone between two planes
+        occ.addCone(0, 0, 0, 0, 0, 1, 0.5, 0.2)
+    elif name == "ellipsoid":  # a sphere scaled (a B-spline surface in OCC)
+        occ.dilate([(3, occ.addSphere(0, 0, 0, 1))], 0, 0, 0, 1, 0.7, 0.5)
     elif name == "hemisphere":  # boundary: the equator, where the surface is vertical
         sphere = occ.addSphere(0, 0, 0, 1)
         occ.cut([(3, sphere)], [(3, occ.addBox(-2, -2, -2, 4, 4, 2))])
@@ -76,6 +86,12 @@ def build(gmsh, name):
     if name in OPEN:
         gmsh.model.removeEntities(gmsh.model.getEntities(3))
         gmsh.model.removeEntities([(2, t) for (_, t) in gmsh.model.getEntities(2) if gmsh.model.getType(2, t) == "Plane"])
+
+
+def set_size(gmsh, h):
+    """Mesh size h (down to h / 4), or for h = 0 Gmsh's defaults."""
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h if h > 0 else 1e22)
+    gmsh.option.setNumber("Mesh.MeshSizeMin", h / 4)
 
 
 def closest_surface(gmsh, P):
@@ -108,7 +124,8 @@ def main(argv):
     ap.add_argument("shapes", nargs="*", default=SHAPES + OPEN)
     ap.add_argument("--hocurve", default=os.path.join(os.path.dirname(__file__), "..", "build", "hocurve"))
     ap.add_argument("--out", default="/tmp/hocurve-sweep")
-    ap.add_argument("--sizes", default="0.1,0.05")
+    ap.add_argument("--sizes", default="0.1,0.05",
+                    help="mesh sizes; 'default' leaves Gmsh's own (from the shape's size: coarse)")
     ap.add_argument("--orders", default="1,2,4,6")
     ap.add_argument("--entities", action="store_true",
                     help="give hocurve a .msh keeping the CAD faces as entities (their borders are then features) instead of the STL")
@@ -120,10 +137,9 @@ def main(argv):
     print("|---|---|---|" + "---|" * len(orders) + "---|---|---|---|")
     failed = False
     for name in a.shapes:
-        for h in (float(x) for x in a.sizes.split(",")):
+        for h in (0.0 if x == "default" else float(x) for x in a.sizes.split(",")):
             build(gmsh, name)
-            gmsh.option.setNumber("Mesh.MeshSizeMax", h)
-            gmsh.option.setNumber("Mesh.MeshSizeMin", h / 4)
+            set_size(gmsh, h)
             gmsh.model.mesh.generate(2)
             stl = os.path.join(a.out, "%s_%g.%s" % (name, h, "msh" if a.entities else "stl"))
             gmsh.write(stl)

@@ -29,6 +29,7 @@ const std::vector<OptionSpec> kCurveOptions = {
     {"threads", true, "worker threads (default: all cores)"},
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
     {"tangent-junctions", true, "on (default: smooth borders where the curvature jumps, as a fillet's, are feature curves) | off"},
+    {"exact-quadrics", true, "on (default: where vertices lie on a plane, sphere, cylinder, cone or ellipsoid to rounding, fit it, however coarse) | off"},
     {"long-edge-ratio", true, "edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
     {"weld-tolerance", true, "merge vertices closer than this x the bounding-box diagonal (default 1e-9; 0: only exactly equal ones)"},
     {"support", true, "auto (default: when the triangulation is non-uniform) | on | off"},
@@ -65,6 +66,7 @@ int run_curve(int argc, char** argv) {
   opt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
   opt.features.angle_deg = a.get_double("feature-angle", opt.features.angle_deg, 0.0, 180.0);
   opt.features.tangent_junctions = a.get_choice("tangent-junctions", "on", {"on", "off"}) == "on";
+  opt.features.exact_quadrics = opt.fit.exact_quadrics = a.get_choice("exact-quadrics", "on", {"on", "off"}) == "on";
   opt.long_edges.ratio = a.get_double("long-edge-ratio", opt.long_edges.ratio, 0.0, 1e9);
   opt.validity.quality_floor = a.get_double("min-jacobian", opt.validity.quality_floor, 0.0, 0.9);
   const std::string support = a.get_choice("support", "auto", {"auto", "on", "off"});

@@ -109,7 +109,8 @@ nlohmann::json normalise_options(const nlohmann::json& raw, const std::set<std::
   static const std::vector<std::string> known = {"mode",          "order",     "nodes",         "format",
                                                  "binary",        "faces",     "ratio",         "max_deviation",
                                                  "tolerance",     "max_faces", "feature_angle", "long_edge_ratio",
-                                                 "min_jacobian",  "redecimate", "tangent_junctions", "weld_tolerance"};
+                                                 "min_jacobian",  "redecimate", "tangent_junctions", "weld_tolerance",
+                                                 "exact_quadrics"};
   const auto value = [&](const std::string& key) { return Value{raw[key], !text_keys || text_keys->count(key) > 0}; };
   Errors err;
   for (auto& [k, v] : raw.items())
@@ -164,7 +165,7 @@ nlohmann::json normalise_options(const nlohmann::json& raw, const std::set<std::
   number("weld_tolerance", [](double x) { return x >= 0 && x <= 0.01; }, "a number in [0, 0.01] (0: exact only)");
 
   if (mode == "coarsen") {
-    for (const char* k : {"nodes", "format", "binary", "tangent_junctions"})
+    for (const char* k : {"nodes", "format", "binary", "tangent_junctions", "exact_quadrics"})
       if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=curve only");
     bool has_faces = raw.contains("faces"), has_ratio = raw.contains("ratio");
     if (has_faces == has_ratio) err.add(has_faces ? "ratio" : "faces", "mode=coarsen needs exactly one of faces or ratio");
@@ -197,10 +198,11 @@ nlohmann::json normalise_options(const nlohmann::json& raw, const std::set<std::
                          shown(x));
       return true;
     };
-    bool binary = false, junctions = true;
+    bool binary = false, junctions = true, quadrics = true;
     flag("binary", binary);
     out["binary"] = binary;
     if (flag("tangent_junctions", junctions)) out["tangent_junctions"] = junctions;  // only when given: the CLI's default is on
+    if (flag("exact_quadrics", quadrics)) out["exact_quadrics"] = quadrics;
   }
   if (!err.list.empty()) {
     std::string detail;
@@ -231,6 +233,8 @@ std::vector<std::string> worker_argv(const std::string& program, const nlohmann:
     if (o.value("binary", false)) a.push_back("--binary");
     if (o.contains("tangent_junctions"))
       a.insert(a.end(), {"--tangent-junctions", o["tangent_junctions"].get<bool>() ? "on" : "off"});
+    if (o.contains("exact_quadrics"))
+      a.insert(a.end(), {"--exact-quadrics", o["exact_quadrics"].get<bool>() ? "on" : "off"});
     a.insert(a.end(), {"--threads", std::to_string(threads)});
   }
   if (o.contains("feature_angle")) a.insert(a.end(), {"--feature-angle", number("feature_angle")});

@@ -353,6 +353,7 @@ def main(argv=None):
     s.add_argument("--min-jacobian", type=float, dest="min_jacobian")
     s.add_argument("--weld-tolerance", type=float, dest="weld_tolerance")
     s.add_argument("--tangent-junctions", choices=("on", "off"), dest="tangent_junctions")
+    s.add_argument("--exact-quadrics", choices=("on", "off"), dest="exact_quadrics")
     s.add_argument("--idempotency-key")
     s.add_argument("--wait", action="store_true", help="wait with a progress bar")
     s.add_argument("-o", "--output", help="with --wait: download the result here")
@@ -385,6 +386,8 @@ def main(argv=None):
                 opts["binary"] = True
             if args.tangent_junctions is not None:
                 opts["tangent_junctions"] = args.tangent_junctions == "on"
+            if args.exact_quadrics is not None:
+                opts["exact_quadrics"] = args.exact_quadrics == "on"
             job = c.submit(args.mesh, opts, idempotency_key=args.idempotency_key, retries=5)
             if not args.wait:
                 out.write(json.dumps(job, indent=2) + "\n")

@@ -154,7 +154,7 @@ long long refit_band_wedges(const Mesh& mesh, const Topology& T, const Wedges& W
   std::vector<char> band(nw, 0);
   tbb::parallel_for(tbb::blocked_range<int>(0, nw), [&](const tbb::blocked_range<int>& r) {
     for (int w = r.begin(); w < r.end(); ++w)
-      if (is_band_wedge(mesh, T, W, feat, w)) {
+      if (!fits[w].exact && is_band_wedge(mesh, T, W, feat, w)) {
         band[w] = 1;
         fits[w] = fit_band_wedge(mesh, T, W, feat, w, feature_fit_degree(p, opt), fits[w], opt);
       }

@@ -2,6 +2,7 @@
 
 #include "engine/core/error.hpp"
 #include "engine/curving/apex_fit.hpp"
+#include "engine/curving/exact_quadric.hpp"
 #include "engine/curving/stencil.hpp"
 #include "engine/curving/tangent_junctions.hpp"
 
@@ -204,6 +205,21 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
   std::vector<FaceNormal> trust(mesh.num_faces(), FaceNormal::reliable);
   if (kink_test)
     for (int f = 0; f < mesh.num_faces(); ++f) trust[f] = face_normal_trust(mesh, T, f, opt.cap_angle_deg, opt.cap_tilt_deg);
+  for (int e = 0; e < ne; ++e)
+    if (const auto& ef = T.edge_faces[e]; ef.size() == 2)
+      theta[e] = angle_deg(face_normal(mesh, ef[0]), face_normal(mesh, ef[1]));
+  // An edge turning further than a crease would, but among vertices on one exact quadric: a
+  // chord of a coarse smooth CAD face (exact_quadric.hpp).
+  std::vector<char> chord(ne, 0);
+  if (opt.exact_quadrics && dihedral) {
+    std::vector<char> candidate(ne, 0);
+    for (int e = 0; e < ne; ++e) candidate[e] = theta[e] >= std::min(opt.angle_deg, opt.weak_angle_deg);
+    chord = exact_quadric_edges(mesh, T, theta, candidate, opt.quadric);
+  }
+  auto on_quadric = [&](int e) {
+    R.quadric_edges += chord[e];
+    return chord[e] != 0;
+  };
   for (int e = 0; e < ne; ++e) {
     const auto& ef = T.edge_faces[e];
     bool feat = false;
@@ -216,11 +232,10 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
         ++R.entity_border_edges;
         if (opt.entity_borders) feat = true;
       }
-      theta[e] = angle_deg(face_normal(mesh, ef[0]), face_normal(mesh, ef[1]));
       cap[e] = trust[ef[0]] == FaceNormal::cap || trust[ef[1]] == FaceNormal::cap;
       needle[e] = trust[ef[0]] == FaceNormal::needle || trust[ef[1]] == FaceNormal::needle;
       if (dihedral && theta[e] > opt.angle_deg && !cap[e] &&
-          !(theta[e] <= opt.fillet_max_deg && coarse_fillet_middle(mesh, T, e, theta[e]))) {
+          !(theta[e] <= opt.fillet_max_deg && coarse_fillet_middle(mesh, T, e, theta[e])) && !on_quadric(e)) {
         ++R.sharp_edges;
         only_sharp[e] = !feat;
         feat = true;
@@ -237,7 +252,7 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
         continue;
       if (smooth_entities && mesh.entity_of(T.edge_faces[e][0]) == mesh.entity_of(T.edge_faces[e][1])) continue;
       const double kink = kink_angle_deg(mesh, T, wall, e, cap[e] || needle[e]);
-      if (kink >= opt.kink_angle_deg && (cap[e] || kink >= 0.5 * theta[e])) {
+      if (kink >= opt.kink_angle_deg && (cap[e] || kink >= 0.5 * theta[e]) && !on_quadric(e)) {
         ++R.sharp_edges, ++R.kink_edges;
         only_sharp[e] = 1;
         R.edge_feature[e] = 1;

@@ -4,6 +4,7 @@
 #include "engine/core/mesh.hpp"
 #include "engine/core/topology.hpp"
 #include "engine/curving/cone_points.hpp"
+#include "engine/curving/exact_quadric.hpp"
 
 #include <vector>
 
@@ -99,6 +100,10 @@ struct FeatureOptions {
   /// instead of 3 also freed coarse tori (h = r / 1.6: 2.3e-2 -> 8.2e-4) but took bunny_closed to
   /// 0.75% and a half torus beyond its linear error.
   int min_dangling_edges = 3;
+  /// Sharp edges (above angle_deg, or by the kink test) among vertices on one exact quadric are
+  /// chords of a coarse smooth CAD face, not creases (edge_on_exact_quadric).
+  bool exact_quadrics = true;
+  ExactQuadricOptions quadric;
   /// Mark cone points (cone_points.hpp): the fits treat them as walls, like feature curves.
   bool cone_points = true;
   /// Sharp edges joined to a vertex that is a cone point when the features are ignored, all
@@ -130,6 +135,7 @@ struct Features {
   int closed_curves = 0;              ///< curves that are closed loops without corners
   long long pruned_edges = 0;         ///< sharp edges dropped by min_dangling_edges (still counted in sharp_edges)
   long long apex_edges = 0;           ///< sharp edges dropped round coarse cone apexes (still counted in sharp_edges)
+  long long quadric_edges = 0;        ///< edges above angle_deg or kinked but on an exact quadric: not sharp
   long long kink_edges = 0;           ///< sharp edges accepted by the kink test (below angle_deg, or of a cap)
   long long junction_edges = 0;       ///< tangent junction edges (FeatureOptions::tangent_junctions)
 };

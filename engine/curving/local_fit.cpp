@@ -12,6 +12,8 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <numbers>
+#include <cstdlib>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -327,6 +329,7 @@ Eigen::Vector3d LocalFit::point(double u, double v, double z) const {
 Eigen::Vector3d LocalFit::project(const Eigen::Vector3d& x) const {
   if (identity) return x;
   if (apex) return apex_project(x);
+  if (exact) return surface->project(x);
   const Eigen::Vector3d c = coords(x);
   return point(c[0], c[1], height(c[0], c[1]));
 }
@@ -601,6 +604,11 @@ bool fit_is_sane(const Mesh& mesh, const Wedges& W, int w, const LocalFit& fit, 
     const Eigen::Vector3d ua = fit.coords(a), ub = fit.coords(b) - ua, uc = fit.coords(c) - ua;
     for (int j = 0; j <= 4; ++j)
       for (int k = 0; j + k <= 4; ++k) {
+        if (fit.exact) {  // no height function: the move itself
+          const Eigen::Vector3d x = a + (j / 4.0) * (b - a) + (k / 4.0) * (c - a);
+          if (!((fit.project(x) - x).norm() <= limit)) return false;
+          continue;
+        }
         const Eigen::Vector3d x = ua + (j / 4.0) * ub + (k / 4.0) * uc;
         if (!(std::abs(fit.height(x[0], x[1]) - x[2]) <= limit)) return false;
       }
@@ -624,6 +632,51 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
   return fit_wedge_unchecked(mesh, T, W, w, p, support, support_start, support_index, opt, scratch);
 }
 
+namespace {
+
+/// Largest angle in degrees between a face normal of wedge w and n.
+double wedge_turn_deg(const Mesh& mesh, const Wedges& W, int w, const Eigen::Vector3d& n) {
+  double c = 1;
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
+    const int f = W.wedge_faces[i];
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), d = mesh.V.row(mesh.F(f, 2));
+    const Eigen::Vector3d m = (b - a).cross(d - a);
+    if (m.norm() > 0) c = std::min(c, m.normalized().dot(n));
+  }
+  return std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / std::numbers::pi;
+}
+
+/// Wedge w's exact quadric as a fit (exact false where it has none): frame at its vertex, normal
+/// along the quadric's, on the side of the wedge's faces.
+LocalFit exact_quadric_fit(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p, const FitOptions& opt,
+                           FitScratch& scratch) {
+  LocalFit F;
+  ExactQuadric Q = wedge_exact_quadric(mesh, T, W, w, opt.exact, scratch.stencil);
+  if (!Q.valid) return F;
+  F.surface = std::make_shared<const ExactQuadric>(std::move(Q));
+  const int v = W.wedge_vertex[w];
+  F.o = mesh.V.row(v).transpose();
+  Eigen::Vector3d n0 = Eigen::Vector3d::Zero();
+  double hsum = 0;
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
+    const int f = W.wedge_faces[i];
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+    n0 += (b - a).cross(c - a);
+    hsum += ((a - F.o).norm() + (b - F.o).norm() + (c - F.o).norm()) / 2;
+  }
+  F.h = hsum > 0 ? hsum / (W.wedge_start[w + 1] - W.wedge_start[w]) : 1.0;
+  F.n = F.surface->gradient(F.o).normalized();
+  if (F.n.dot(n0) < 0) F.n = -F.n;
+  tangent_frame(F.n, F.t1, F.t2);
+  F.exact = true;
+  F.degree = F.requested_degree = p;
+  F.c = Eigen::VectorXd::Zero(fit_coefficients(p));
+  F.pivot_ratio = 1;
+  return F;
+}
+
+}  // namespace
+
 LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p,
                    const SupportPoints* support, const std::vector<int>& support_start,
                    const std::vector<int>& support_index, const FitOptions& opt, FitScratch& scratch) {
@@ -634,6 +687,13 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
     return apex;
   }
   LocalFit fit = fit_wedge_unchecked(mesh, T, W, w, p, support, support_start, support_index, opt, scratch);
+  // The exact quadric, where the wedge's faces turn enough for the height polynomial to miss
+  // (on finer meshes it fits to rounding too, and the quadric test would only cost time), and
+  // on features, whose curves are where two exact sides cross (place_nodes.cpp).
+  if (opt.exact_quadrics && p > 1 && (W.one_sided(w) || wedge_turn_deg(mesh, W, w, fit.n) > opt.exact.min_turn_deg)) {
+    LocalFit exact = exact_quadric_fit(mesh, T, W, w, p, opt, scratch);
+    if (exact.exact && fit_is_sane(mesh, W, w, exact, opt)) return exact;
+  }
   if (fit_is_sane(mesh, W, w, fit, opt)) return fit;
   LocalFit low;
   if (p > 1) {
@@ -980,7 +1040,7 @@ long long adopt_agreeing_fits(const Mesh& mesh, const Topology& T, const Wedges&
     for (int w = r.begin(); w < r.end(); ++w) {
       const int d = wedge_degree(W, w, p, opt);
       const bool quadric_candidate = gate_refused[w] && !fits[w].quadric_ref && fits[w].degree == d;
-      if (!W.one_sided(w) || fits[w].identity || !(quadric_candidate || opt.one_sided_torus)) continue;
+      if (!W.one_sided(w) || fits[w].identity || fits[w].exact || !(quadric_candidate || opt.one_sided_torus)) continue;
       const double current = disagreement(mesh, W, w, fits[w], fits);
       if (!(current > 1e-6 * fits[w].h)) continue;  // agrees to round-off already
       double best = opt.one_sided_quadric_agreement * current;
@@ -1058,6 +1118,7 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
     ++R.degree_histogram[f.degree];
     if (f.degree < f.requested_degree) ++R.downgraded;
     if (f.support_points > 0) ++R.with_support;
+    if (f.exact) ++R.exact_fits;
     pts += f.points;
   }
   R.mean_points = nw ? pts / nw : 0;

@@ -4,11 +4,13 @@
 #pragma once
 #include "engine/core/mesh.hpp"
 #include "engine/core/topology.hpp"
+#include "engine/curving/exact_quadric.hpp"
 #include "engine/curving/stencil.hpp"
 #include "engine/curving/support_points.hpp"
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <memory>
 #include <vector>
 
 namespace hocurve {
@@ -206,6 +208,12 @@ struct FitOptions {
   int apex_rings = 3;
   double apex_max_residual = 0.01;
   int apex_share_rings = 2;
+  /// A wedge whose stencil's vertices lie on one quadric to rounding (wedge_exact_quadric: a CAD
+  /// mesher's vertices on a plane, sphere, cylinder, cone or ellipsoid) takes that quadric as its
+  /// fit. Why: on coarse meshes a height polynomial over a stencil that wraps a third of a
+  /// cylinder round misses it by far more than the quadric, which is exact.
+  bool exact_quadrics = true;
+  ExactQuadricOptions exact;
 };
 
 /// The sanity bound of fits on a face with corners a, b, c: how far a fit may move a point of it
@@ -282,6 +290,11 @@ struct LocalFit {
   /// chord of a fan of three triangles passes near the axis, and its projected points crowd
   /// toward the ends of the arc (P4 elements there inverted).
   Eigen::Vector3d apex_point(const Eigen::Matrix3d& P, const Eigen::Vector3d& xi) const;
+  /// The exact quadric through the wedge's stencil (exact_quadric.hpp, FitOptions::exact_quadrics):
+  /// used instead of the height function when set; project() moves a point onto it. Shared, not
+  /// held: most fits have none, and a fit is copied between passes.
+  bool exact = false;
+  std::shared_ptr<const ExactQuadric> surface;
   /// Where this fit puts the point at barycentric xi of the triangle with corners P, x being its
   /// position so far: apex_point for an apex model, else project(x).
   Eigen::Vector3d place(const Eigen::Matrix3d& P, const Eigen::Vector3d& xi, const Eigen::Vector3d& x) const {
@@ -348,6 +361,7 @@ struct FitResult {
   long long downgraded = 0;               ///< fits below the requested degree
   long long with_support = 0;             ///< fits that used support points
   long long agreeing_fits = 0;            ///< one-sided wedges given a quadric or torus fit by one_sided_quadric_agreement
+  long long exact_fits = 0;               ///< wedges on an exact quadric or plane (FitOptions::exact_quadrics)
   long long apex_fits = 0;                ///< wedges on a cone point's model: its own and its neighbours' (share_apex_fits)
   double mean_points = 0;
   double seconds = 0;

@@ -26,9 +26,24 @@ Eigen::Vector3d blend_projection(const Mesh& mesh, const Wedges& W, const std::v
                                  const Eigen::Vector3d& xi, const Eigen::Vector3d& x) {
   Eigen::Matrix3d P;
   for (int i = 0; i < 3; ++i) P.row(i) = mesh.V.row(mesh.F(f, i));
+  const LocalFit* fit[3];
+  for (int j = 0; j < 3; ++j) fit[j] = &fits[W.corner_wedge(f, j)];
+  // A corner off every exact quadric (its stencil spans two CAD faces: a tangent junction) takes
+  // the exact quadric of another corner that passes through it and along the face: the face lies
+  // on that CAD face. For an edge, the corner off it (weight 0) may offer it too. Not a cone
+  // model's corner: it places a face's points by their azimuth (LocalFit::apex_point), where
+  // projections of a wide fan's chords crowd (Gmsh's cone at h = 0.05: P6 8.3e-4 -> 2.6e-3).
+  const Eigen::Vector3d normal = (P.row(1) - P.row(0)).cross(P.row(2) - P.row(0)).normalized();
+  for (int j = 0; j < 3; ++j)
+    for (int k = 0; k < 3 && !fit[j]->exact && !fit[j]->apex; ++k) {
+      const LocalFit& other = fits[W.corner_wedge(f, k)];
+      if (k != j && other.exact && other.surface->contains(P.row(j)) &&
+          std::abs(normal.dot(other.surface->gradient(P.row(j)).normalized())) >= 0.5)
+        fit[j] = &other;
+    }
   Eigen::Vector3d out = Eigen::Vector3d::Zero();
   for (int j = 0; j < 3; ++j)
-    if (xi[j] != 0.0) out += xi[j] * fits[W.corner_wedge(f, j)].place(P, xi, x);
+    if (xi[j] != 0.0) out += xi[j] * fit[j]->place(P, xi, x);
   return out;
 }
 
@@ -54,6 +69,35 @@ int feature_valence(const Topology& T, const Features& feat, int v) {
   int n = 0;
   for (auto [b, e] = T.edges_of(v); b != e; ++b) n += feat.edge_feature[*b] != 0;
   return n;
+}
+
+/// Where the surface fits of interior edge e's two sides cross the plane normal to its chord at
+/// t: alternating projections from `start` (start itself where they do not converge).
+Eigen::Vector3d surface_crossing(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
+                                 int e, double t, const Eigen::Vector3d& start) {
+  const int f1 = T.edge_faces[e][0], f2 = T.edge_faces[e][1];
+  const Eigen::Vector3d xi1 = edge_barycentric(mesh, T, e, f1, t), xi2 = edge_barycentric(mesh, T, e, f2, t);
+  const Eigen::Vector3d chord = mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0));
+  const double len = chord.norm();
+  const Eigen::Vector3d u = chord / len;
+  Eigen::Vector3d x = start;
+  for (int it = 0; it < 100; ++it) {
+    Eigen::Vector3d y = blend_projection(mesh, W, fits, f2, xi2, blend_projection(mesh, W, fits, f1, xi1, x));
+    y -= (y - start).dot(u) * u;
+    const double step = (y - x).norm();
+    x = y;
+    if (step <= 1e-13 * len) return x;
+  }
+  return start;
+}
+
+/// True when both ends of edge e have exact quadric fits on both its sides (LocalFit::exact): two
+/// CAD faces known to rounding, whose crossing is the curve itself.
+bool exact_sides(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits, int e) {
+  for (int f : T.edge_faces[e])
+    for (int j = 0; j < 3; ++j)
+      if ((mesh.F(f, j) == T.E(e, 0) || mesh.F(f, j) == T.E(e, 1)) && !fits[W.corner_wedge(f, j)].exact) return false;
+  return true;
 }
 
 /// Point at t of feature edge e: where the surface fits of its two sides cross the plane normal
@@ -83,6 +127,10 @@ Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const We
   const Eigen::Vector3d line = curve_edge_point(mesh, T, curves, e, t);
   const CurveFit &c0 = curves.fits[2 * e], &c1 = curves.fits[2 * e + 1];
   const bool fitted = c0.points > 2 || c1.points > 2;
+  if (T.edge_faces[e].size() == 2 && exact_sides(mesh, T, W, fits, e)) {
+    const Eigen::Vector3d x = surface_crossing(mesh, T, W, fits, e, t, line);
+    return (x - line).norm() <= 0.25 * (mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0))).norm() ? x : line;
+  }
   if (T.edge_faces[e].size() != 2 || (fitted && (c0.on_circle || c1.on_circle)) ||
       (ctx.long_edge && !ctx.long_edge->edge.empty() && ctx.long_edge->edge[e]))
     return line;
@@ -91,20 +139,9 @@ Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const We
   if (!fitted && ctx.feat &&
       (feature_valence(T, *ctx.feat, T.E(e, 0)) < 3 || feature_valence(T, *ctx.feat, T.E(e, 1)) < 3))
     return line;
-  const Eigen::Vector3d xi1 = edge_barycentric(mesh, T, e, f1, t), xi2 = edge_barycentric(mesh, T, e, f2, t);
-  const Eigen::Vector3d chord = mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0));
-  const double len = chord.norm();
-  const Eigen::Vector3d u = chord / len;
-  Eigen::Vector3d x = line;
-  for (int it = 0; it < 100; ++it) {
-    Eigen::Vector3d y = blend_projection(mesh, W, fits, f2, xi2, blend_projection(mesh, W, fits, f1, xi1, x));
-    y -= (y - line).dot(u) * u;
-    const double step = (y - x).norm();
-    x = y;
-    if (!(step <= 1e-13 * len)) continue;
-    return (x - line).norm() <= (fitted ? 1e-3 : 0.05) * len ? x : line;
-  }
-  return line;
+  const Eigen::Vector3d x = surface_crossing(mesh, T, W, fits, e, t, line);
+  const double len = (mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0))).norm();
+  return (x - line).norm() <= (fitted ? 1e-3 : 0.05) * len ? x : line;
 }
 
 /// Unit normal of face f's straight triangle.

@@ -76,7 +76,13 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
   } else {
     progress("features", 0.05);
     t0 = Clock::now();
-    R.features = detect_features(mesh, T, opt.features);
+    // What "on a quadric to rounding" means depends on how the input stored its coordinates.
+    const double rounding = coordinate_rounding(mesh);
+    FeatureOptions feature_opt = opt.features;
+    FitOptions fit_opt = opt.fit;
+    if (feature_opt.quadric.rounding == 0) feature_opt.quadric.rounding = rounding;
+    if (fit_opt.exact.rounding == 0) fit_opt.exact.rounding = rounding;
+    R.features = detect_features(mesh, T, feature_opt);
     R.features_seconds = seconds_since(t0);
 
     progress("distance", 0.1);
@@ -104,11 +110,11 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     const Wedges W = build_wedges(mesh, T, R.features.edge_feature, R.features.vertex_cone);
     R.wedges = W.num_wedges();
     if (p >= 2) {
-      const int d = fit_degree(p, opt.fit);
-      R.fits = fit_wedges(mesh, T, W, d, R.support_used ? &support : nullptr, opt.fit);
-      R.band_wedges = refit_band_wedges(mesh, T, W, R.features, d, opt.fit, R.fits.fits);
+      const int d = fit_degree(p, fit_opt);
+      R.fits = fit_wedges(mesh, T, W, d, R.support_used ? &support : nullptr, fit_opt);
+      R.band_wedges = refit_band_wedges(mesh, T, W, R.features, d, fit_opt, R.fits.fits);
       progress("curve fits", 0.6);
-      R.curve_fits = fit_feature_curves(mesh, T, R.features, d, opt.fit);
+      R.curve_fits = fit_feature_curves(mesh, T, R.features, d, fit_opt);
     } else {
       R.fits.fits.resize(W.num_wedges());
       R.fits.degree_histogram.assign(2, 0);

@@ -14,7 +14,7 @@ nlohmann::json stats_json(const CurveResult& r) {
   long long feature_edges = 0;
   for (char c : F.edge_feature) feature_edges += c ? 1 : 0;
   j["features"] = {{"feature_edges", feature_edges},  {"sharp_edges", F.sharp_edges}, {"kink_edges", F.kink_edges}, {"junction_edges", F.junction_edges},
-                   {"pruned_edges", F.pruned_edges}, {"apex_edges", F.apex_edges},
+                   {"pruned_edges", F.pruned_edges}, {"apex_edges", F.apex_edges}, {"quadric_edges", F.quadric_edges},
                    {"boundary_edges", F.boundary_edges}, {"nonmanifold_edges", F.nonmanifold_edges},
                    {"entity_border_edges", F.entity_border_edges}, {"corners", F.corners}, {"cone_points", F.cone_points},
                    {"curves", F.curves.size()},         {"seconds", r.features_seconds}};
@@ -35,7 +35,7 @@ nlohmann::json stats_json(const CurveResult& r) {
   j["fits"] = {{"wedges", r.wedges}, {"band_wedges", r.band_wedges},
                {"degree_histogram", hist},
                {"downgraded", r.fits.downgraded},
-               {"with_support", r.fits.with_support}, {"agreeing_fits", r.fits.agreeing_fits}, {"apex_fits", r.fits.apex_fits},
+               {"with_support", r.fits.with_support}, {"agreeing_fits", r.fits.agreeing_fits}, {"apex_fits", r.fits.apex_fits}, {"exact_fits", r.fits.exact_fits},
                {"mean_stencil_points", r.fits.mean_points},
                {"seconds", r.fits.seconds}};
   j["curve_fits"] = {{"fitted", r.curve_fits.fitted}, {"downgraded", r.curve_fits.downgraded},

@@ -82,6 +82,8 @@ TEST_CASE("options: every offending key is reported with a JSON pointer") {
   CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"faces", 10}, {"binary", 1}}), ApiError);  // curve-only key
   CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"faces", 10}, {"tangent_junctions", true}}), ApiError);
   CHECK_THROWS_AS(normalise_options({{"tangent_junctions", "maybe"}}), ApiError);
+  CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"faces", 10}, {"exact_quadrics", false}}), ApiError);
+  CHECK_THROWS_AS(normalise_options({{"exact_quadrics", 2}}), ApiError);
   CHECK_THROWS_AS(normalise_options({{"faces", 10}}), ApiError);                                      // coarsen-only key
   CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"ratio", 0}}), ApiError);
   CHECK_THROWS_AS(normalise_options({{"mode", "coarsen"}, {"ratio", 0.1}, {"max_deviation", -1}}), ApiError);
@@ -102,6 +104,10 @@ TEST_CASE("worker command line follows the CLI contract") {
   a = worker_argv("h", normalise_options({{"tangent_junctions", "0"}}), "i", "o", "s", 1);
   CHECK(a == std::vector<std::string>{"h", "curve", "i", "-o", "o", "--order", "4", "--nodes", "equispaced", "--format",
                                       "msh41", "--tangent-junctions", "off", "--threads", "1", "--stats", "s",
+                                      "--progress"});
+  a = worker_argv("h", normalise_options({{"exact_quadrics", false}}), "i", "o", "s", 1);
+  CHECK(a == std::vector<std::string>{"h", "curve", "i", "-o", "o", "--order", "4", "--nodes", "equispaced", "--format",
+                                      "msh41", "--exact-quadrics", "off", "--threads", "1", "--stats", "s",
                                       "--progress"});
   a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"faces", 500}, {"order", 2}}), "i", "o", "s", 1);
   CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "2", "--faces", "500", "--stats", "s",

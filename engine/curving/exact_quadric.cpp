@@ -1,0 +1,245 @@
+#include "engine/curving/exact_quadric.hpp"
+
+#include "engine/curving/stencil.hpp"
+
+#include <Eigen/Geometry>
+#include <Eigen/Eigenvalues>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace hocurve {
+
+namespace {
+
+Eigen::Matrix<double, 10, 1> monomials(const Eigen::Vector3d& y) {
+  Eigen::Matrix<double, 10, 1> m;
+  m << y[0] * y[0], y[1] * y[1], y[2] * y[2], y[0] * y[1], y[1] * y[2], y[2] * y[0], y[0], y[1], y[2], 1.0;
+  return m;
+}
+
+Eigen::Vector3d face_normal(const Mesh& mesh, int f) {
+  const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+  return (b - a).cross(c - a);
+}
+
+}  // namespace
+
+Eigen::Vector3d ExactQuadric::gradient(const Eigen::Vector3d& x) const {
+  const Eigen::Vector3d y = (x - centre) / scale;
+  return {2 * c[0] * y[0] + c[3] * y[1] + c[5] * y[2] + c[6], 2 * c[1] * y[1] + c[3] * y[0] + c[4] * y[2] + c[7],
+          2 * c[2] * y[2] + c[4] * y[1] + c[5] * y[0] + c[8]};
+}
+
+double ExactQuadric::value(const Eigen::Vector3d& x) const { return c.dot(monomials((x - centre) / scale)); }
+
+double ExactQuadric::distance(const Eigen::Vector3d& x) const {
+  const double g = gradient(x).norm();
+  return g > 0 ? std::abs(value(x)) / g * scale : std::numeric_limits<double>::infinity();
+}
+
+Eigen::Vector3d ExactQuadric::project(const Eigen::Vector3d& x) const {
+  Eigen::Vector3d y = x;
+  for (int it = 0; it < 20; ++it) {
+    const Eigen::Vector3d g = gradient(y);
+    const double g2 = g.squaredNorm();
+    if (!(g2 > 0)) return x;
+    const Eigen::Vector3d step = value(y) / g2 * scale * g;
+    y -= step;
+    if (step.norm() <= 1e-15 * scale) break;
+  }
+  return y.allFinite() ? y : x;
+}
+
+namespace {
+
+/// Largest first-order distance of the points (rows of D, normalised coordinates) to the quadric c.
+double max_distance(const Eigen::MatrixXd& Y, const Eigen::Matrix<double, 10, 1>& c, double scale) {
+  ExactQuadric Q;
+  Q.c = c;
+  double d = 0;
+  for (Eigen::Index i = 0; i < Y.rows(); ++i) d = std::max(d, Q.distance(Y.row(i).transpose()) * scale);
+  return std::isnan(d) ? std::numeric_limits<double>::infinity() : d;
+}
+
+}  // namespace
+
+ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes) {
+  ExactQuadric Q;
+  const int k = static_cast<int>(P.rows());
+  if (k < 4) return Q;
+  Q.centre = P.colwise().mean().transpose();
+  const Eigen::MatrixXd Y = P.rowwise() - Q.centre.transpose();
+  Q.scale = Y.rowwise().norm().maxCoeff();
+  if (!(Q.scale > 0)) return Q;
+  if (planes) {
+    // Points on a plane lie on every quadric containing it: the plane, where it fits.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> cov(Y.transpose() * Y);
+    const Eigen::Vector3d n = cov.eigenvectors().col(0);
+    const double off = (Y * n).cwiseAbs().maxCoeff();
+    if (cov.info() == Eigen::Success && off <= 1e-3 * Q.scale) {
+      Q.c.setZero();
+      Q.c.segment<3>(6) = n;
+      Q.max_residual = off;
+      Q.runner_up = (Y * cov.eigenvectors().col(1)).cwiseAbs().maxCoeff();  // the best plane across it
+      Q.valid = true;
+      return Q;
+    }
+  }
+  if (k < 12) return Q;
+  // The smallest eigenvector of the 10 x 10 normal matrix in coordinates scaled to the unit
+  // ball (5x cheaper than the SVD, once per wedge); the next one is the runner-up.
+  const Eigen::MatrixXd U = Y / Q.scale;
+  Eigen::Matrix<double, 10, 10> M = Eigen::Matrix<double, 10, 10>::Zero();
+  for (int i = 0; i < k; ++i) M.selfadjointView<Eigen::Lower>().rankUpdate(monomials(U.row(i).transpose()));
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 10, 10>> eig(M.selfadjointView<Eigen::Lower>());
+  if (eig.info() != Eigen::Success) return Q;
+  Q.c = eig.eigenvectors().col(0);
+  Q.max_residual = max_distance(U, Q.c, Q.scale);
+  Q.runner_up = max_distance(U, eig.eigenvectors().col(1), Q.scale);
+  Q.valid = Q.c.allFinite() && std::isfinite(Q.max_residual);
+  return Q;
+}
+
+double coordinate_rounding(const Mesh& mesh) {
+  bool single = true;
+  for (Eigen::Index i = 0; i < mesh.V.size() && single; ++i)
+    single = static_cast<double>(static_cast<float>(mesh.V.data()[i])) == mesh.V.data()[i];
+  if (single) return std::ldexp(1.0, -24);
+  // Decimal text (OBJ, ASCII STL): the most significant digits a sampled coordinate needs to
+  // come back exactly.
+  int most = 1;
+  const Eigen::Index n = mesh.V.size(), step = std::max<Eigen::Index>(1, n / 3000);
+  char text[40];
+  for (Eigen::Index i = 0; i < n && most < 17; i += step) {
+    const double x = mesh.V.data()[i];
+    int digits = most;
+    for (; digits < 17; ++digits) {
+      std::snprintf(text, sizeof text, "%.*e", digits - 1, x);
+      if (std::strtod(text, nullptr) == x) break;
+    }
+    most = digits;
+  }
+  const double rounding = std::max(0.5 * std::pow(10.0, 1 - most), std::numeric_limits<double>::epsilon());
+  return rounding;
+}
+
+namespace {
+
+/// The quadric through the vertices of `faces` (invalid unless they lie on it within
+/// tolerance and it is regular at `ends`: a crease between two planes lies on their product,
+/// singular along it). planes: a plane through them is taken too.
+ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::initializer_list<int> ends,
+                        const ExactQuadricOptions& opt, bool planes = false) {
+  std::vector<int> verts;
+  for (int f : faces)
+    for (int j = 0; j < 3; ++j) verts.push_back(mesh.F(f, j));
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  Eigen::MatrixXd P(verts.size(), 3);
+  for (size_t i = 0; i < verts.size(); ++i) P.row(i) = mesh.V.row(verts[i]);
+  ExactQuadric Q = fit_exact_quadric(P, planes);
+  Q.tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
+  if (!Q.valid || !(Q.max_residual <= Q.tolerance) || !(Q.runner_up >= opt.unique * Q.tolerance)) Q.valid = false;
+  double largest = 0;
+  for (int v : verts) largest = std::max(largest, Q.gradient(mesh.V.row(v).transpose()).norm());
+  for (int v : ends)
+    if (!(Q.gradient(mesh.V.row(v).transpose()).norm() >= opt.min_gradient_ratio * largest)) Q.valid = false;
+  return Q;
+}
+
+/// Per face of `faces`: 1 where its normal is within max_normal_angle_deg of the quadric's at its
+/// corners, on the side of faces[0].
+std::vector<char> agreeing(const Mesh& mesh, const ExactQuadric& Q, const std::vector<int>& faces,
+                           const ExactQuadricOptions& opt) {
+  const double min_cos = std::cos(opt.max_normal_angle_deg * std::numbers::pi / 180.0);
+  const double side = face_normal(mesh, faces[0]).dot(Q.gradient(mesh.V.row(mesh.F(faces[0], 0)).transpose())) > 0 ? 1 : -1;
+  std::vector<char> agree(faces.size(), 1);
+  for (size_t i = 0; i < faces.size(); ++i) {
+    const Eigen::Vector3d n = face_normal(mesh, faces[i]).normalized();
+    for (int j = 0; j < 3; ++j)
+      if (!(side * n.dot(Q.gradient(mesh.V.row(mesh.F(faces[i], j)).transpose()).normalized()) >= min_cos)) agree[i] = 0;
+  }
+  return agree;
+}
+
+bool all_agree(const std::vector<char>& agree) { return std::count(agree.begin(), agree.end(), 0) == 0; }
+
+}  // namespace
+
+bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std::vector<double>& face_angle,
+                           const ExactQuadricOptions& opt) {
+  const auto& ef = T.edge_faces[e];
+  if (ef.size() != 2) return false;
+  // The region: face rings round e, not across edges turning much further than e, nor out of
+  // `keep` (when given, per face of `from`).
+  const double wall = opt.wall_factor * face_angle[e] + 15.0;
+  auto grow = [&](const std::vector<char>* keep, const std::vector<int>& from) {
+    std::vector<int> faces(ef.begin(), ef.end());
+    for (int step = 0, begin = 0; step < opt.rings; ++step) {
+      const int end = static_cast<int>(faces.size());
+      for (int i = begin; i < end; ++i)
+        for (int j = 0; j < 3; ++j) {
+          const int g = T.FE(faces[i], j);
+          if (T.edge_faces[g].size() != 2 || face_angle[g] > wall) continue;
+          for (int f : T.edge_faces[g]) {
+            if (keep && !(*keep)[std::find(from.begin(), from.end(), f) - from.begin()]) continue;
+            if (std::find(faces.begin(), faces.end(), f) == faces.end()) faces.push_back(f);
+          }
+        }
+      begin = end;
+    }
+    return faces;
+  };
+  const std::vector<int> region = grow(nullptr, {});
+  // A region of flat faces only (every face with a coplanar neighbour) is a prism's side, two
+  // triangles per flat face, their corners on a cylinder too. Gmsh meshes some strips of a
+  // cylinder between two rulings (its seam, beside a junction): those are flat too, but not all.
+  auto flat = [&](int f) {
+    for (int j = 0; j < 3; ++j)
+      if (const int g = T.FE(f, j); T.edge_faces[g].size() == 2 && face_angle[g] < 0.5) return true;
+    return false;
+  };
+  if (std::all_of(region.begin(), region.end(), flat)) return false;
+  const ExactQuadric Q = fit_region(mesh, region, {T.E(e, 0), T.E(e, 1)}, opt);
+  if (!Q.valid) return false;
+  const std::vector<char> agree = agreeing(mesh, Q, region, opt);
+  if (!agree[0] || !agree[1]) return false;
+  if (all_agree(agree)) return true;
+  // Faces across the quadric (a cylinder's flat cap whose corners are all on its rim, so on the
+  // cylinder too) leave; what is left round e must still determine an exact quadric.
+  const std::vector<int> side = grow(&agree, region);
+  const ExactQuadric Q2 = fit_region(mesh, side, {T.E(e, 0), T.E(e, 1)}, opt);
+  return Q2.valid && all_agree(agreeing(mesh, Q2, side, opt));
+}
+
+std::vector<char> exact_quadric_edges(const Mesh& mesh, const Topology& T, const std::vector<double>& face_angle,
+                                      const std::vector<char>& candidate, const ExactQuadricOptions& opt) {
+  std::vector<char> chord(T.num_edges(), 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, T.num_edges(), 256), [&](const tbb::blocked_range<int>& r) {
+    for (int e = r.begin(); e < r.end(); ++e) chord[e] = candidate[e] && edge_on_exact_quadric(mesh, T, e, face_angle, opt);
+  });
+  return chord;
+}
+
+ExactQuadric wedge_exact_quadric(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
+                                 const ExactQuadricOptions& opt, StencilScratch& scratch) {
+  StencilOptions so;
+  so.min_rings = 1;
+  so.max_rings = opt.rings;
+  so.target_points = opt.wedge_points;
+  const Stencil S = grow_stencil(mesh, T, W, w, so, scratch);
+  ExactQuadric Q;
+  if (S.faces.empty()) return Q;
+  Q = fit_region(mesh, S.faces, {W.wedge_vertex[w]}, opt, true);
+  if (Q.valid && !all_agree(agreeing(mesh, Q, S.faces, opt))) Q.valid = false;
+  return Q;
+}
+
+}  // namespace hocurve

@@ -1,0 +1,109 @@
+// Exact quadrics through mesh vertices: a CAD mesher puts its vertices on the exact surface, and
+// planes, spheres, cylinders, cones and ellipsoids are quadrics. Where the vertices round an edge
+// lie on one smooth quadric to rounding, the edge is a chord of that surface, however far it
+// turns (a coarse mesh of a cylinder), not a crease.
+#pragma once
+#include "engine/core/mesh.hpp"
+#include "engine/core/topology.hpp"
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <vector>
+
+namespace hocurve {
+
+struct Wedges;
+struct StencilScratch;
+
+/// An implicit quadric q(y) = c . (y1^2, y2^2, y3^2, y1 y2, y2 y3, y3 y1, y1, y2, y3, 1) = 0 in
+/// normalised coordinates y = (x - centre) / scale, |c| = 1.
+struct ExactQuadric {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  double scale = 1;
+  Eigen::Matrix<double, 10, 1> c = Eigen::Matrix<double, 10, 1>::Zero();
+  double max_residual = 0;  ///< largest first-order distance |q| / |grad q| of a point, world units
+  /// The same for the runner-up (the next eigenvector): about max_residual where the points lie
+  /// on more than one quadric (two circles, two lines), so that none is determined.
+  double runner_up = 0;
+  double tolerance = 0;     ///< the distance within which a point counts as on it (fit_region), world units
+  bool valid = false;       ///< fitted (enough points, finite, determined)
+  /// q at world point x.
+  double value(const Eigen::Vector3d& x) const;
+  /// First-order distance of x to the quadric, world units (infinite where the gradient is 0).
+  double distance(const Eigen::Vector3d& x) const;
+  /// x within tolerance of the quadric.
+  bool contains(const Eigen::Vector3d& x) const { return distance(x) <= tolerance; }
+  /// A point of the quadric near x: Newton steps along the gradient from x (x itself where the
+  /// gradient vanishes).
+  Eigen::Vector3d project(const Eigen::Vector3d& x) const;
+  /// Gradient of q at world point x (normalised coordinates' gradient: only its direction and
+  /// relative size matter).
+  Eigen::Vector3d gradient(const Eigen::Vector3d& x) const;
+};
+
+/// Least-squares implicit quadric through the points (rows of P, at least 12): the smallest
+/// eigenvector of the monomials' normal matrix. planes: points within 1e-3 x their spread of a
+/// plane (at least 4) get that plane. valid: fitted, finite (whether it fits is the caller's).
+ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes = false);
+
+/// Relative rounding of the mesh's coordinates: 2^-24 where all are float32 (binary STL), else
+/// half a unit in the last of the fewest decimal digits that give back sampled coordinates
+/// (text formats), at least double epsilon.
+double coordinate_rounding(const Mesh& mesh);
+
+struct ExactQuadricOptions {
+  int rings = 3;                  ///< face rings grown round an edge; most rings of a wedge's stencil
+  int wedge_points = 16;          ///< a wedge's stencil grows until it has this many vertices
+  /// The region does not cross edges turning by more than this factor x the tested edge's
+  /// dihedral angle + 15 degrees: the creases round a coarse smooth face turn further than its
+  /// chords (a cylinder's rim 80-90 degrees, a six-segment side's 23-38).
+  double wall_factor = 1.5;
+  /// Points must lie within tolerance x rounding x their largest coordinate norm of the quadric.
+  double tolerance = 8;
+  /// The input's relative coordinate rounding (coordinate_rounding; 0: float32's 2^-24, a binary
+  /// STL's); taken as at least 1e-8: a CAD kernel's curves between two faces are approximations
+  /// (OpenCASCADE's to about 1e-7), and so are the positions of the vertices on them (Gmsh's tee
+  /// and cylinder with a cross hole from a full-precision ASCII STL, at 1e-10: P4 30-70x worse).
+  double rounding = 0;
+  /// ... and the runner-up quadric must miss some point by unique x the tolerance: points on two
+  /// circles lie on a cylinder and on every sphere and hyperboloid through both (t13's 48 mm
+  /// walls between two fillets bulged 3 mm on one).
+  double unique = 1000;
+  /// A wedge off the features tries its exact quadric only where one of its faces turns from its fit's normal by
+  /// more than this (degrees; local_fit.cpp): below, a degree-4 polynomial fits to about
+  /// (2 degrees in radians)^5 h = 5e-8 h, and the test would only cost time (the 200k-triangle
+  /// sphere, 0.7 degrees per edge: 0.75 s more).
+  double min_turn_deg = 2;
+  /// tolerance x rounding (0: 2^-24, at least 1e-8).
+  double relative_tolerance() const { return tolerance * std::max(rounding > 0 ? rounding : 0x1p-24, 1e-8); }
+  /// Every region face's normal within this angle (degrees) of the quadric's normal at its
+  /// corners, all on one side: a cylinder's flat cap with no inner vertex has its corners on the
+  /// cylinder too, but its normal is square to it.
+  double max_normal_angle_deg = 60.0;
+  /// The quadric's gradient at the edge's ends at least this x its largest in the region: a
+  /// crease between two planes lies on their product, singular along the crease.
+  double min_gradient_ratio = 0.1;
+};
+
+/// True when interior edge e (dihedral angle theta, degrees) lies inside a region of vertices on
+/// one exact, regular quadric whose normals agree with the faces' (ExactQuadricOptions), and
+/// not every face of the region has a coplanar neighbour (a prism's flat sides, two triangles
+/// each, have their corners on a cylinder too). face_angle: per Topology edge, the dihedral angle in
+/// degrees (0 for boundary edges).
+bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std::vector<double>& face_angle,
+                           const ExactQuadricOptions& opt = {});
+
+/// Per edge, 1 where candidate[e] and edge_on_exact_quadric (TBB-parallel). Not repeated with
+/// the edges found not on one as walls: a revolved CAD export's profile creases then bounded
+/// regions of three coaxial circles, which always lie on a quadric of revolution (king: P6 0.44
+/// -> 0.49% off the input).
+std::vector<char> exact_quadric_edges(const Mesh& mesh, const Topology& T, const std::vector<double>& face_angle,
+                                      const std::vector<char>& candidate, const ExactQuadricOptions& opt = {});
+
+/// The exact quadric or plane of wedge w (valid false if none): through the vertices of its stencil (not
+/// across features; grown until it holds wedge_points), regular at its vertex, every stencil
+/// face's normal agreeing with it.
+ExactQuadric wedge_exact_quadric(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
+                                 const ExactQuadricOptions& opt, StencilScratch& scratch);
+
+}  // namespace hocurve

@@ -1,0 +1,200 @@
+// Exact quadrics through mesh vertices (exact_quadric.hpp): the fit, the input's rounding, and
+// which turning edges are chords of a coarse smooth CAD face rather than creases.
+#include <doctest/doctest.h>
+
+#include "engine/core/topology.hpp"
+#include "engine/curving/exact_quadric.hpp"
+#include "engine/curving/features.hpp"
+#include "engine/curving/solf.hpp"
+#include "engine/curving/test_meshes.hpp"
+#include "engine/highorder/high_order_mesh.hpp"
+#include "engine/highorder/lagrange.hpp"
+#include "engine/highorder/reference_nodes.hpp"
+
+#include <cmath>
+#include <string>
+#include <numbers>
+#include <vector>
+
+using namespace hocurve;
+
+namespace {
+
+constexpr double pi = std::numbers::pi;
+
+Eigen::MatrixXd rows(const std::vector<Eigen::Vector3d>& pts) {
+  Eigen::MatrixXd P(pts.size(), 3);
+  for (size_t i = 0; i < pts.size(); ++i) P.row(i) = pts[i].transpose();
+  return P;
+}
+
+Mesh from_faces(const std::vector<Eigen::Vector3d>& V, const std::vector<std::array<int, 3>>& F) {
+  Mesh m;
+  m.V = rows(V);
+  m.F.resize(static_cast<int>(F.size()), 3);
+  for (size_t i = 0; i < F.size(); ++i) m.F.row(static_cast<int>(i)) << F[i][0], F[i][1], F[i][2];
+  return m;
+}
+
+/// Closed cylinder r, z in [0, height], n vertices round each of `rows_` + 1 rings, ring k turned by
+/// twist * k steps (twist 0: the sides are flat quads, a prism). cap_centre: each cap a fan round a
+/// centre vertex; else a fan from one rim vertex (no inner vertex: all its corners on the cylinder).
+Mesh ring_cylinder(int n, int rows_, double r, double height, double twist, bool cap_centre) {
+  std::vector<Eigen::Vector3d> V;
+  for (int k = 0; k <= rows_; ++k)
+    for (int j = 0; j < n; ++j) {
+      const double a = 2 * pi * (j + twist * k) / n;
+      V.emplace_back(r * std::cos(a), r * std::sin(a), height * k / rows_);
+    }
+  auto id = [&](int k, int j) { return k * n + (j % n); };
+  std::vector<std::array<int, 3>> F;
+  for (int k = 0; k < rows_; ++k)
+    for (int j = 0; j < n; ++j) {
+      F.push_back({id(k, j), id(k, j + 1), id(k + 1, j)});
+      F.push_back({id(k, j + 1), id(k + 1, j + 1), id(k + 1, j)});
+    }
+  for (int k : {0, rows_}) {
+    const bool top = k == rows_;
+    if (cap_centre) {
+      const int c = static_cast<int>(V.size());
+      V.emplace_back(0, 0, height * k / rows_);
+      for (int j = 0; j < n; ++j) F.push_back(top ? std::array{c, id(k, j), id(k, j + 1)} : std::array{c, id(k, j + 1), id(k, j)});
+    } else {
+      for (int j = 1; j + 1 < n; ++j)
+        F.push_back(top ? std::array{id(k, 0), id(k, j), id(k, j + 1)} : std::array{id(k, 0), id(k, j + 1), id(k, j)});
+    }
+  }
+  return from_faces(V, F);
+}
+
+/// Edges whose faces' normals turn by more than 35 degrees and stay sharp, and those cleared as chords.
+std::pair<long long, long long> sharp_and_chords(const Mesh& m) {
+  const Topology T = build_topology(m.F, m.num_vertices());
+  const Features F = detect_features(m, T);
+  return {F.sharp_edges, F.quadric_edges};
+}
+
+}  // namespace
+
+TEST_CASE("fit_exact_quadric: exact on a quadric's points, undetermined on two circles") {
+  std::vector<Eigen::Vector3d> cyl, ellipsoid, circles;
+  for (int i = 0; i < 24; ++i) {
+    const double a = 0.37 * i, z = std::sin(1.3 * i);
+    cyl.emplace_back(2 + 0.5 * std::cos(a), -1 + 0.5 * std::sin(a), 0.4 * z);
+    const double t = 0.21 * i + 0.3;
+    ellipsoid.emplace_back(std::cos(a) * std::sin(t), 0.7 * std::sin(a) * std::sin(t), 0.5 * std::cos(t));
+    circles.emplace_back(std::cos(a), std::sin(a), i % 2 ? 0.3 : 0.0);
+  }
+  for (const auto* pts : {&cyl, &ellipsoid}) {
+    const ExactQuadric Q = fit_exact_quadric(rows(*pts));
+    CHECK(Q.valid);
+    CHECK(Q.max_residual < 1e-12);
+    CHECK(Q.runner_up > 1e-4);  // no other quadric comes near
+    for (const Eigen::Vector3d& x : *pts) CHECK((Q.project(x + 0.01 * Q.gradient(x).normalized()) - x).norm() < 1e-3);
+  }
+  // Two parallel circles lie on a cylinder and on every sphere or hyperboloid through both.
+  const ExactQuadric C = fit_exact_quadric(rows(circles));
+  CHECK(C.max_residual < 1e-12);
+  CHECK(C.runner_up < 1e-10);
+  // A plane only when asked for.
+  std::vector<Eigen::Vector3d> plane;
+  for (int i = 0; i < 6; ++i) plane.emplace_back(std::cos(i), std::sin(2 * i), 0.5 * std::cos(i) - 0.25 * std::sin(2 * i));
+  CHECK(!fit_exact_quadric(rows(plane)).valid);  // 6 points: too few for a quadric
+  const ExactQuadric P = fit_exact_quadric(rows(plane), true);
+  CHECK(P.valid);
+  CHECK(P.max_residual < 1e-14);
+  CHECK(P.runner_up > 0.1);
+}
+
+TEST_CASE("coordinate_rounding: float32, decimal text, full doubles") {
+  Mesh m = icosphere(1);
+  CHECK(coordinate_rounding(m) < 1e-15);
+  Mesh f = m;
+  f.V = m.V.cast<float>().cast<double>();
+  CHECK(coordinate_rounding(f) == std::ldexp(1.0, -24));
+  Mesh d = m;
+  for (Eigen::Index i = 0; i < d.V.size(); ++i) d.V.data()[i] = std::round(d.V.data()[i] * 1e5) / 1e5;  // "%.5f"
+  const double r = coordinate_rounding(d);
+  CHECK(r >= 5e-7);
+  CHECK(r <= 5e-5);
+}
+
+TEST_CASE("turning edges on one exact quadric are chords; creases stay sharp") {
+  // A 6-sided cylinder, each ring turned by half a step: its side edges turn by 23-38 degrees
+  // (sharp, or kinks), but every vertex is on the cylinder. The rims (79 degrees) are creases.
+  for (bool centre : {true, false}) {
+    // Caps with no inner vertex have all their corners on the cylinder too, but their normals are
+    // square to it: the rims stay sharp.
+    const Mesh m = ring_cylinder(6, 3, 0.5, 1.0, 0.5, centre);
+    const auto [sharp, chords] = sharp_and_chords(m);
+    const Topology T = build_topology(m.F, m.num_vertices());
+    FeatureOptions off;
+    off.exact_quadrics = false;
+    const long long sharp_off = detect_features(m, T, off).sharp_edges;
+    MESSAGE("twisted 6-sided cylinder, caps " << std::string(centre ? "round a centre" : "without inner vertices") << ": "
+                                              << sharp << " sharp, " << chords << " chords (" << sharp_off << " sharp without)");
+    CHECK(sharp == 12);
+    CHECK(chords > 0);
+    CHECK(sharp_off > 12);
+  }
+  // A hexagonal prism: every side a flat rectangle of two triangles, corners on a cylinder.
+  {
+    const auto [sharp, chords] = sharp_and_chords(ring_cylinder(6, 1, 0.5, 1.0, 0, true));
+    CHECK(sharp == 18);
+    CHECK(chords == 0);
+  }
+  // Two planes meeting at a 60 degree ridge (a roof, 6 x 6 per side): on their product, which is
+  // singular along the ridge.
+  {
+    std::vector<Eigen::Vector3d> V;
+    std::vector<std::array<int, 3>> F;
+    const int n = 7;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < 2 * n - 1; ++j) {
+        const double y = (j - (n - 1)) * 0.1;
+        V.emplace_back(0.1 * i + 0.013 * j, y, -std::abs(y) * std::tan(pi / 6));
+      }
+    for (int i = 0; i + 1 < n; ++i)
+      for (int j = 0; j + 1 < 2 * n - 1; ++j) {
+        const int a = i * (2 * n - 1) + j;
+        F.push_back({a, a + 2 * n - 1, a + 1});
+        F.push_back({a + 1, a + 2 * n - 1, a + 2 * n});
+      }
+    const auto [sharp, chords] = sharp_and_chords(from_faces(V, F));
+    CHECK(sharp == n - 1);
+    CHECK(chords == 0);
+  }
+}
+
+TEST_CASE("a coarse twisted cylinder curves onto the cylinder") {
+  // 8 round, 3 rows, rings turned by half a step: side edges read as creases without the exact
+  // quadrics; with them the side is one smooth face fitted by its cylinder, and the rims follow
+  // the crossing of the cylinder and the caps.
+  const double r = 0.5, height = 1.0;
+  const Mesh m = ring_cylinder(8, 3, r, height, 0.5, true);
+  auto error = [&](const CurveOptions& o) {  // largest distance to the cylinder over a lattice of each element
+    const CurveResult R = curve_mesh(m, o);
+    const HighOrderMesh& hm = R.mesh;
+    const Eigen::MatrixXd uv = triangle_lattice(8).cast<double>() / 8;
+    double e = 0;
+    for (int f = 0; f < hm.num_faces(); ++f) {
+      const Eigen::MatrixXd X = evaluate_triangle(element_nodes(hm, f), hm.order, uv);
+      for (Eigen::Index i = 0; i < X.rows(); ++i)
+        e = std::max(e, std::abs(capped_cylinder_distance(Eigen::Vector3d(X.row(i).transpose()) - Eigen::Vector3d(0, 0, height / 2), r, height)));
+    }
+    return std::pair{e, R};
+  };
+  CurveOptions o;
+  o.order = 4;
+  const auto [p4, R] = error(o);
+  CurveOptions off = o;
+  off.features.exact_quadrics = off.fit.exact_quadrics = false;
+  const double p4_off = error(off).first;
+  o.order = 1;
+  const double lin = error(o).first;
+  MESSAGE("twisted 8-sided cylinder: linear " << lin << ", P4 " << p4 << " (" << R.fits.exact_fits << " exact fits), without exact quadrics " << p4_off);
+  CHECK(R.features.sharp_edges == 16);
+  CHECK(R.validity.invalid_after == 0);
+  CHECK(p4 * 1000 < lin);
+  CHECK(p4 * 100 < p4_off);
+}
