@@ -7,10 +7,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include <cstdio>
-#include <cstdlib>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <numbers>
 
@@ -59,7 +59,8 @@ Eigen::Vector3d ExactQuadric::project(const Eigen::Vector3d& x) const {
 
 namespace {
 
-/// Largest first-order distance of the points (rows of D, normalised coordinates) to the quadric c.
+/// Largest first-order distance (world units) of the points (rows of Y, coordinates divided by
+/// scale) to the quadric c.
 double max_distance(const Eigen::MatrixXd& Y, const Eigen::Matrix<double, 10, 1>& c, double scale) {
   ExactQuadric Q;
   Q.c = c;
@@ -126,8 +127,7 @@ double coordinate_rounding(const Mesh& mesh) {
     }
     most = digits;
   }
-  const double rounding = std::max(0.5 * std::pow(10.0, 1 - most), std::numeric_limits<double>::epsilon());
-  return rounding;
+  return std::max(0.5 * std::pow(10.0, 1 - most), std::numeric_limits<double>::epsilon());
 }
 
 namespace {
@@ -189,7 +189,10 @@ bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std
           const int g = T.FE(faces[i], j);
           if (T.edge_faces[g].size() != 2 || face_angle[g] > wall) continue;
           for (int f : T.edge_faces[g]) {
-            if (keep && !(*keep)[std::find(from.begin(), from.end(), f) - from.begin()]) continue;
+            if (keep) {
+              const auto it = std::find(from.begin(), from.end(), f);
+              if (it == from.end() || !(*keep)[it - from.begin()]) continue;
+            }
             if (std::find(faces.begin(), faces.end(), f) == faces.end()) faces.push_back(f);
           }
         }
@@ -239,6 +242,15 @@ ExactQuadric wedge_exact_quadric(const Mesh& mesh, const Topology& T, const Wedg
   if (S.faces.empty()) return Q;
   Q = fit_region(mesh, S.faces, {W.wedge_vertex[w]}, opt, true);
   if (Q.valid && !all_agree(agreeing(mesh, Q, S.faces, opt))) Q.valid = false;
+  if (Q.valid && opt.confirm_points > opt.wedge_points) {
+    so.max_rings = opt.rings + 2;
+    so.target_points = opt.confirm_points;
+    const Stencil L = grow_stencil(mesh, T, W, w, so, scratch);
+    if (L.faces.size() > S.faces.size()) {
+      const ExactQuadric C = fit_region(mesh, L.faces, {W.wedge_vertex[w]}, opt, true);
+      if (!C.valid || !all_agree(agreeing(mesh, C, L.faces, opt))) Q.valid = false;
+    }
+  }
   return Q;
 }
 

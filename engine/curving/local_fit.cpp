@@ -12,13 +12,12 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <numbers>
-#include <cstdlib>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <numbers>
 #include <utility>
 
 namespace hocurve {
