@@ -645,27 +645,18 @@ double wedge_turn_deg(const Mesh& mesh, const Wedges& W, int w, const Eigen::Vec
   return std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / std::numbers::pi;
 }
 
-/// Wedge w's exact quadric as a fit (exact false where it has none): frame at its vertex, normal
-/// along the quadric's, on the side of the wedge's faces.
+/// Wedge w's exact quadric as a fit (exact false where it has none), in the frame of its height
+/// fit `fit` (vertex, scale h), the normal turned to the quadric's on the same side.
 LocalFit exact_quadric_fit(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p, const FitOptions& opt,
-                           FitScratch& scratch) {
+                           FitScratch& scratch, const LocalFit& fit) {
   LocalFit F;
   ExactQuadric Q = wedge_exact_quadric(mesh, T, W, w, opt.exact, scratch.stencil);
   if (!Q.valid) return F;
   F.surface = std::make_shared<const ExactQuadric>(std::move(Q));
-  const int v = W.wedge_vertex[w];
-  F.o = mesh.V.row(v).transpose();
-  Eigen::Vector3d n0 = Eigen::Vector3d::Zero();
-  double hsum = 0;
-  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
-    const int f = W.wedge_faces[i];
-    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
-    n0 += (b - a).cross(c - a);
-    hsum += ((a - F.o).norm() + (b - F.o).norm() + (c - F.o).norm()) / 2;
-  }
-  F.h = hsum > 0 ? hsum / (W.wedge_start[w + 1] - W.wedge_start[w]) : 1.0;
+  F.o = fit.o;
+  F.h = fit.h;
   F.n = F.surface->gradient(F.o).normalized();
-  if (F.n.dot(n0) < 0) F.n = -F.n;
+  if (F.n.dot(fit.n) < 0) F.n = -F.n;
   tangent_frame(F.n, F.t1, F.t2);
   F.exact = true;
   F.degree = F.requested_degree = p;
@@ -690,7 +681,7 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
   // (on finer meshes it fits to rounding too, and the quadric test would only cost time), and
   // on features, whose curves are where two exact sides cross (place_nodes.cpp).
   if (opt.exact_quadrics && p > 1 && (W.one_sided(w) || wedge_turn_deg(mesh, W, w, fit.n) > opt.exact.min_turn_deg)) {
-    LocalFit exact = exact_quadric_fit(mesh, T, W, w, p, opt, scratch);
+    LocalFit exact = exact_quadric_fit(mesh, T, W, w, p, opt, scratch, fit);
     if (exact.exact && fit_is_sane(mesh, W, w, exact, opt)) return exact;
   }
   if (fit_is_sane(mesh, W, w, fit, opt)) return fit;
