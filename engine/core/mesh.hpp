@@ -1,6 +1,7 @@
 // The linear triangle surface mesh every stage starts from.
 #pragma once
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,13 @@ struct Mesh {
   /// Entity tag of face f (1 when the mesh carries no entities).
   int entity_of(int f) const { return face_entity.size() ? face_entity[f] : 1; }
 };
+
+/// Unnormalised normal of face f, (b - a) x (c - a), as oriented in the input (zero for a face of
+/// zero area).
+inline Eigen::Vector3d face_normal(const Mesh& mesh, int f) {
+  const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+  return (b - a).cross(c - a);
+}
 
 /// A straight triangle has zero area when |e1 x e2| <= kZeroArea x (its longest edge)^2: its
 /// smallest height is below ~1e-12 of its longest edge. One tolerance for every stage, so the

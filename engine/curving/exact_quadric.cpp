@@ -24,11 +24,6 @@ Eigen::Matrix<double, 10, 1> monomials(const Eigen::Vector3d& y) {
   return m;
 }
 
-Eigen::Vector3d face_normal(const Mesh& mesh, int f) {
-  const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
-  return (b - a).cross(c - a);
-}
-
 }  // namespace
 
 Eigen::Vector3d ExactQuadric::gradient(const Eigen::Vector3d& x) const {

@@ -17,12 +17,6 @@ namespace hocurve {
 
 namespace {
 
-/// Unnormalised normal of face f (as oriented in the input).
-Eigen::Vector3d face_normal(const Mesh& mesh, int f) {
-  const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
-  return (b - a).cross(c - a);
-}
-
 /// Angle in degrees between u and v (0 when either is zero).
 double angle_deg(const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
   const double nu = u.norm(), nv = v.norm();

@@ -637,9 +637,7 @@ namespace {
 double wedge_turn_deg(const Mesh& mesh, const Wedges& W, int w, const Eigen::Vector3d& n) {
   double c = 1;
   for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
-    const int f = W.wedge_faces[i];
-    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), d = mesh.V.row(mesh.F(f, 2));
-    const Eigen::Vector3d m = (b - a).cross(d - a);
+    const Eigen::Vector3d m = face_normal(mesh, W.wedge_faces[i]);
     if (m.norm() > 0) c = std::min(c, m.normalized().dot(n));
   }
   return std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / std::numbers::pi;

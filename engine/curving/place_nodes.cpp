@@ -33,7 +33,7 @@ Eigen::Vector3d blend_projection(const Mesh& mesh, const Wedges& W, const std::v
   // on that CAD face. For an edge, the corner off it (weight 0) may offer it too. Not a cone
   // model's corner: it places a face's points by their azimuth (LocalFit::apex_point), where
   // projections of a wide fan's chords crowd (Gmsh's cone at h = 0.05: P6 8.3e-4 -> 2.6e-3).
-  const Eigen::Vector3d normal = (P.row(1) - P.row(0)).cross(P.row(2) - P.row(0)).normalized();
+  const Eigen::Vector3d normal = face_normal(mesh, f).normalized();
   for (int j = 0; j < 3; ++j)
     for (int k = 0; k < 3 && !fit[j]->exact && !fit[j]->apex; ++k) {
       const LocalFit& other = fits[W.corner_wedge(f, k)];
@@ -144,12 +144,6 @@ Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const We
   return (x - line).norm() <= (fitted ? 1e-3 : 0.05) * len ? x : line;
 }
 
-/// Unit normal of face f's straight triangle.
-Eigen::Vector3d face_normal(const Mesh& mesh, int f) {
-  const Eigen::Vector3d a0 = mesh.V.row(mesh.F(f, 0)), a1 = mesh.V.row(mesh.F(f, 1)), a2 = mesh.V.row(mesh.F(f, 2));
-  return (a1 - a0).cross(a2 - a0).normalized();
-}
-
 /// What the curve fit moves feature edge e's point at t beyond face f's surface blend there,
 /// within f's plane (unit normal n).
 Eigen::Vector3d curve_side_shift(const Mesh& mesh, const Topology& T, const Wedges& W,
@@ -172,7 +166,7 @@ std::array<bool, 3> curve_sides_within(const Mesh& mesh, const Topology& T, cons
                                        const std::vector<LocalFit>& fits, const CurveFitResult& curves,
                                        const EdgeContext& ctx, const std::vector<char>& on_curve, int f,
                                        double max_shift) {
-  const Eigen::Vector3d n = face_normal(mesh, f);
+  const Eigen::Vector3d n = face_normal(mesh, f).normalized();
   std::array<bool, 3> within{};
   for (int j = 0; j < 3; ++j) {
     const int e = T.FE(f, j);
@@ -201,7 +195,7 @@ Eigen::Vector3d curve_side_face_point(const Mesh& mesh, const Topology& T, const
                                       const EdgeContext& ctx, int f, const Eigen::Vector3d& xi,
                                       const CurveSideBlend& blend) {
   Eigen::Vector3d x = blend_point(mesh, W, fits, f, xi);
-  const Eigen::Vector3d n = face_normal(mesh, f);
+  const Eigen::Vector3d n = face_normal(mesh, f).normalized();
   for (int j = 0; j < 3; ++j) {
     const int e = T.FE(f, j);  // joins corners j and (j + 1) % 3; the opposite corner is (j + 2) % 3
     const double side = 1 - xi[(j + 2) % 3];

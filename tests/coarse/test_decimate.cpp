@@ -34,11 +34,6 @@ int check_closed_manifold(const Mesh& m) {
   return m.num_vertices() - T.num_edges() + m.num_faces();
 }
 
-Eigen::Vector3d face_normal(const Mesh& m, int f) {
-  const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
-  return (b - a).cross(c - a);
-}
-
 }  // namespace
 
 TEST_CASE("icosphere 5120 -> 4%: closed, genus 0, no fold-over") {
