@@ -29,7 +29,7 @@ const std::vector<OptionSpec> kCurveOptions = {
     {"threads", true, "worker threads (default: all cores)"},
     {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
     {"tangent-junctions", true, "on (default: smooth borders where the curvature jumps, as a fillet's, are feature curves) | off"},
-    {"exact-quadrics", true, "on (default: where vertices lie on a plane, sphere, cylinder, cone or ellipsoid to rounding, fit it, however coarse) | off"},
+    {"exact-quadrics", true, "on (default: where vertices lie on a plane, sphere, cylinder, cone, ellipsoid or torus to rounding, fit it, however coarse) | off"},
     {"long-edge-ratio", true, "edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
     {"weld-tolerance", true, "merge vertices closer than this x the bounding-box diagonal (default 1e-9; 0: only exactly equal ones)"},
     {"support", true, "auto (default: when the triangulation is non-uniform) | on | off"},

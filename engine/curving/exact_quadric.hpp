@@ -1,7 +1,8 @@
 // Exact quadrics through mesh vertices: a CAD mesher puts its vertices on the exact surface, and
 // planes, spheres, cylinders, cones and ellipsoids are quadrics. Where the vertices round an edge
 // lie on one smooth quadric to rounding, the edge is a chord of that surface, however far it
-// turns (a coarse mesh of a cylinder), not a crease.
+// turns (a coarse mesh of a cylinder), not a crease. Tori are no quadrics but Darboux cyclides
+// (quartics of the form quadric + |y|^2 b.y + a |y|^4), tried where no quadric fits.
 #pragma once
 #include "engine/core/mesh.hpp"
 #include "engine/core/topology.hpp"
@@ -16,17 +17,20 @@ struct Wedges;
 struct StencilScratch;
 
 /// An implicit quadric q(y) = c . (y1^2, y2^2, y3^2, y1 y2, y2 y3, y3 y1, y1, y2, y3, 1) = 0 in
-/// normalised coordinates y = (x - centre) / scale, |c| = 1.
+/// normalised coordinates y = (x - centre) / scale, |c| = 1; or a Darboux cyclide, the quadric
+/// plus c10..12 |y|^2 y + c13 |y|^4: tori (CAD fillets, rounded rims), Dupin cyclides.
 struct ExactQuadric {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   double scale = 1;
-  Eigen::Matrix<double, 10, 1> c = Eigen::Matrix<double, 10, 1>::Zero();
+  Eigen::Matrix<double, 14, 1> c = Eigen::Matrix<double, 14, 1>::Zero();
   double max_residual = 0;  ///< largest first-order distance |q| / |grad q| of a point, world units
   /// The same for the runner-up (the next eigenvector): about max_residual where the points lie
   /// on more than one quadric (two circles, two lines), so that none is determined.
   double runner_up = 0;
   double tolerance = 0;     ///< the distance within which a point counts as on it (fit_region), world units
   bool valid = false;       ///< fitted (enough points, finite, determined)
+  /// A cyclide's quartic terms, not a quadric.
+  bool cyclide() const { return c.tail<4>().squaredNorm() > 0; }
   /// q at world point x.
   double value(const Eigen::Vector3d& x) const;
   /// First-order distance of x to the quadric, world units (infinite where the gradient is 0).
@@ -45,6 +49,10 @@ struct ExactQuadric {
 /// eigenvector of the monomials' normal matrix. planes: points within 1e-3 x their spread of a
 /// plane (at least 4) get that plane. valid: fitted, finite (whether it fits is the caller's).
 ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes = false);
+
+/// The same for Darboux cyclides (at least 16 points). Points on a sphere or a plane lie on
+/// many cyclides (the sphere times any sphere), so try the quadric first.
+ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P);
 
 /// Relative rounding of the mesh's coordinates: 2^-24 where all are float32 (binary STL), else
 /// half a unit in the last of the fewest decimal digits that give back sampled coordinates
@@ -74,6 +82,10 @@ struct ExactQuadricOptions {
   /// circles lie on a cylinder and on every sphere and hyperboloid through both (t13's 48 mm
   /// walls between two fillets bulged 3 mm on one).
   double unique = 1000;
+  /// The same for cyclides, whose 13 unknowns fit more: five coaxial circles (a revolved CAD
+  /// export's rings) lie on one cyclide of revolution. King's profile got 26 false ones at 1000
+  /// (0.50% -> 0.67% off the input); the tori of CAD parts are determined 10^4 - 10^6 x over.
+  double unique_cyclide = 1e4;
   /// A wedge off the features tries its exact quadric only where one of its faces turns from its fit's normal by
   /// more than this (degrees; local_fit.cpp): below, a degree-4 polynomial fits to about
   /// (2 degrees in radians)^5 h = 5e-8 h, and the test would only cost time (the 200k-triangle
@@ -88,6 +100,9 @@ struct ExactQuadricOptions {
   /// The quadric's gradient at the edge's ends at least this x its largest in the region: a
   /// crease between two planes lies on their product, singular along the crease.
   double min_gradient_ratio = 0.1;
+  /// Where the points lie on no quadric, try a Darboux cyclide: a torus is one, and CAD fillets
+  /// and rounded rims are tori. A wedge fits it on its confirm_points stencil (13 unknowns).
+  bool cyclides = true;
 };
 
 /// True when interior edge e (dihedral angle theta, degrees) lies inside a region of vertices on

@@ -209,7 +209,7 @@ struct FitOptions {
   double apex_max_residual = 0.01;
   int apex_share_rings = 2;
   /// A wedge whose stencil's vertices lie on one quadric to rounding (wedge_exact_quadric: a CAD
-  /// mesher's vertices on a plane, sphere, cylinder, cone or ellipsoid) takes that quadric as its
+  /// mesher's vertices on a plane, sphere, cylinder, cone, ellipsoid, or a torus: a cyclide) takes it as its
   /// fit. Why: on coarse meshes a height polynomial over a stencil that wraps a third of a
   /// cylinder round misses it by far more than the quadric, which is exact.
   bool exact_quadrics = true;

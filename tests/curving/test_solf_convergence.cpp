@@ -207,8 +207,13 @@ TEST_CASE("P6 converges and beats P4 on fine meshes") {
   auto rows = table("icosphere P4-P6", {icosphere(2), icosphere(3), icosphere(4)}, ps, sphere);
   CHECK(rate(rows, 2) >= 6.5);
   CHECK(rows.back().err[2] < rows.back().err[0]);
+  // The polynomial fits' rate: with cyclides the three coarser tori are fitted exactly (P6 1.1e-6 /
+  // 7.6e-9 / 5.7e-11 where the polynomials give 1.4e-4 / 2.4e-7 / 6.6e-9), the finest, whose wedges
+  // turn by less than 2 degrees, is not, and the rate would compare the two.
+  CurveOptions polynomials;
+  polynomials.fit.exact.cyclides = polynomials.features.quadric.cyclides = false;
   auto trows = table("torus P4-P6", {torus_grid(30, 12, 1.0, 0.4), torus_grid(60, 24, 1.0, 0.4),
-                                     torus_grid(120, 48, 1.0, 0.4), torus_grid(240, 96, 1.0, 0.4)}, ps, torus);
+                                     torus_grid(120, 48, 1.0, 0.4), torus_grid(240, 96, 1.0, 0.4)}, ps, torus, polynomials);
   CHECK(rate(trows, 2) >= 6.5);
   CHECK(trows.back().err[2] < trows.back().err[0]);
 }

@@ -762,7 +762,8 @@ TEST_CASE("fillets given as CAD faces: one-sided fits over their own torus where
   const double r = 0.12, h = 0.05;
   const Dist dist = roundcyl_distance(r);
   const Mesh m = roundcyl_mesh(h, r);
-  CurveOptions o;
+  CurveOptions o;  // without cyclides, which fit these tori exactly (P4 1.1e-6 with them, 2.2e-5 without)
+  o.fit.exact.cyclides = o.features.quadric.cyclides = false;
   const CurveResult R = curve_mesh(m, o);
   o.fit.one_sided_torus = false;
   const CurveResult plane = curve_mesh(m, o);
