@@ -15,8 +15,8 @@ hole: P4 within 10x of Gmsh's CAD P4 along the intersection curve.
 Asserts: output reads back with Gmsh as a single block of type-23 triangles, one per input triangle,
 watertight/conforming (every edge's node set shared by exactly two elements), no element with a
 non-positive sampled Jacobian against its straight normal; sphere: P4 error >= 1000x below the
-linear input's and <= 10x Gmsh's own P4 elevation of the exact CAD (REF); coarse torus: P4 error
->= 4x below linear.
+linear input's and <= 10x Gmsh's own P4 elevation of the exact CAD (REF); the coarse torus (h = r/2)
+too.
 
 Usage: test_accuracy.py BUILD_DIR   (the hocurve binary must exist there: CI builds it)
 """
@@ -266,9 +266,11 @@ def check_coarse_quadrics(hoc, work):
     P4 was at the linear error but on the ellipsoid (2x) and frustum (4x). Their vertices lie on
     quadrics to rounding: such edges are now chords (FeatureOptions::exact_quadrics), such wedges
     fit the quadric (FitOptions::exact_quadrics), and curves between two of them follow the
-    crossing: P4 >= 40x below linear, within 3x of Gmsh's exact-CAD P4."""
+    crossing: P4 >= 40x below linear, within 3x of Gmsh's exact-CAD P4. The half torus's vertices
+    lie on no quadric but on a cyclide (ExactQuadricOptions::cyclides): P4 was at the linear error
+    (5.8e-2), now 4.4e-4, 0.85x Gmsh's."""
     gmsh = shapes.gmsh_init()
-    for name in ("tee", "drilledball", "frustum", "ellipsoid", "crosshole"):
+    for name in ("tee", "drilledball", "frustum", "ellipsoid", "crosshole", "halftorus"):
         check_cad_p4(gmsh, hoc, work, name, 0, 40, 3)
 
 
@@ -286,14 +288,12 @@ def main(argv):
     check_open_surfaces(hoc, work)
     check_curve_sides(hoc, work)
     check_coarse_quadrics(hoc, work)
-    # (shape, size, strict): strict = the brief's targets (>= 1000x below linear, <= 10x Gmsh's
-    # exact-CAD P4); the coarse torus (h = r/2) only has to beat the linear input by 4x.
     # (shape, size, gain, ref_factor): P4 at least gain x below linear and, where ref_factor is
     # given, within ref_factor x Gmsh's exact-CAD P4 (the brief's targets for the sphere: 1000x,
-    # 10x); the coarse torus (h = r/2) only has to beat the linear input by 4x; the coarse
+    # 10x); the coarse torus (h = r/2) the same since its cyclide fits (1575x, 0.37x Gmsh; 244x before); the coarse
     # ellipsoid (226 triangles) had two one-edge false curves at its tips and was 2x below linear
     # (FeatureOptions::min_dangling_edges: 115x).
-    cases = [("sphere", 0.1, 1000, 10), ("torus", 0.2, 4, None), ("ellipsoid", 0.3, 50, None)]
+    cases = [("sphere", 0.1, 1000, 10), ("torus", 0.2, 1000, 10), ("ellipsoid", 0.3, 50, None)]
     for name, size, gain, ref_factor in cases:
         stl = shapes.make_stl(name, size, work)
         h = shapes.size_value(name, size)
