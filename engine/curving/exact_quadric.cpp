@@ -156,9 +156,10 @@ double coordinate_rounding(const Mesh& mesh) {
 
 namespace {
 
-/// The quadric through the vertices of `faces` (invalid unless they lie on it within
-/// tolerance and it is regular at `ends`: a crease between two planes lies on their product,
-/// singular along it). planes: a plane through them is taken too.
+/// The quadric, else (opt.cyclides) the cyclide, through the vertices of `faces` (invalid unless
+/// they lie on it within tolerance, it is determined, and it is regular at `ends`: a crease
+/// between two planes lies on their product, singular along it). planes: a plane through them
+/// is taken too.
 ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::initializer_list<int> ends,
                         const ExactQuadricOptions& opt, bool planes = false) {
   std::vector<int> verts;
@@ -183,6 +184,10 @@ ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::in
     if (!(Q.gradient(mesh.V.row(v).transpose()).norm() >= opt.min_gradient_ratio * largest)) Q.valid = false;
   return Q;
 }
+
+/// Q is a cyclide that misses some of its points: they lie on no cyclide, nor do more points
+/// round them, and no larger region need be tried (scans' wedges, creases).
+bool off_every_cyclide(const ExactQuadric& Q) { return Q.cyclide() && !(Q.max_residual <= Q.tolerance); }
 
 /// Per face of `faces`: 1 where its normal is within max_normal_angle_deg of the quadric's at its
 /// corners, on the side of faces[0].
@@ -246,8 +251,7 @@ bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std
   // half torus: chords turning up to 57 degrees, its rims 71-88), walls at theta + 15 degrees.
   // Only a cyclide: a quadric through these smaller or further regions was not one through
   // the first (Thingi10K 375236: 12 faces on a quadric, 3 false chords, 1.4% -> 8.3% off the input).
-  const bool off_cyclides = Q.cyclide() && !(Q.max_residual <= Q.tolerance);
-  for (int attempt = off_cyclides ? 1 : 0; attempt < 2 && !Q.valid && opt.cyclides; ++attempt) {
+  for (int attempt = off_every_cyclide(Q) ? 1 : 0; attempt < 2 && !Q.valid && opt.cyclides; ++attempt) {
     if (attempt == 0) rings += 2;
     else wall = face_angle[e] + 15.0;
     region = grow(nullptr, {}, rings);
@@ -285,9 +289,7 @@ ExactQuadric wedge_exact_quadric(const Mesh& mesh, const Topology& T, const Wedg
   if (S.faces.empty()) return Q;
   Q = fit_region(mesh, S.faces, {W.wedge_vertex[w]}, opt, true);
   if (Q.valid && !all_agree(agreeing(mesh, Q, S.faces, opt))) Q.valid = false;
-  // Points not on one cyclide are not on one with more points: no larger stencil (scans).
-  const bool off_cyclides = Q.cyclide() && !(Q.max_residual <= Q.tolerance);
-  if ((Q.valid || (opt.cyclides && !off_cyclides)) && opt.confirm_points > opt.wedge_points) {
+  if ((Q.valid || (opt.cyclides && !off_every_cyclide(Q))) && opt.confirm_points > opt.wedge_points) {
     so.max_rings = opt.rings + 2;
     so.target_points = opt.confirm_points;
     const Stencil L = grow_stencil(mesh, T, W, w, so, scratch);

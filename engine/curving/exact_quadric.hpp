@@ -106,7 +106,7 @@ struct ExactQuadricOptions {
 };
 
 /// True when interior edge e (dihedral angle theta, degrees) lies inside a region of vertices on
-/// one exact, regular quadric whose normals agree with the faces' (ExactQuadricOptions), and
+/// one exact, regular quadric or cyclide whose normals agree with the faces' (ExactQuadricOptions), and
 /// not every face of the region has a coplanar neighbour (a prism's flat sides, two triangles
 /// each, have their corners on a cylinder too). face_angle: per Topology edge, the dihedral angle in
 /// degrees (0 for boundary edges).
@@ -122,7 +122,8 @@ std::vector<char> exact_quadric_edges(const Mesh& mesh, const Topology& T, const
 
 /// The exact quadric or plane of wedge w (valid false if none): through the vertices of its stencil (not
 /// across features; grown until it holds wedge_points, then confirmed on confirm_points), regular
-/// at its vertex, every stencil face's normal agreeing with it.
+/// at its vertex, every stencil face's normal agreeing with it. Else its cyclide, on either
+/// stencil (on the larger where the smaller has too few points or does not determine it).
 ExactQuadric wedge_exact_quadric(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
                                  const ExactQuadricOptions& opt, StencilScratch& scratch);
 
