@@ -93,15 +93,22 @@ void fit_implicit(const Eigen::MatrixXd& U, ExactQuadric& Q) {
   Q.valid = Q.c.allFinite() && std::isfinite(Q.max_residual);
 }
 
+/// The points P relative to their centroid, which becomes Q's centre; their largest norm
+/// becomes Q's scale.
+Eigen::MatrixXd centred(const Eigen::MatrixXd& P, ExactQuadric& Q) {
+  Q.centre = P.colwise().mean().transpose();
+  Eigen::MatrixXd Y = P.rowwise() - Q.centre.transpose();
+  Q.scale = Y.rowwise().norm().maxCoeff();
+  return Y;
+}
+
 }  // namespace
 
 ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes) {
   ExactQuadric Q;
   const int k = static_cast<int>(P.rows());
   if (k < 4) return Q;
-  Q.centre = P.colwise().mean().transpose();
-  const Eigen::MatrixXd Y = P.rowwise() - Q.centre.transpose();
-  Q.scale = Y.rowwise().norm().maxCoeff();
+  const Eigen::MatrixXd Y = centred(P, Q);
   if (!(Q.scale > 0)) return Q;
   if (planes) {
     // Points on a plane lie on every quadric containing it: the plane, where it fits.
@@ -125,9 +132,7 @@ ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes) {
 ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P) {
   ExactQuadric Q;
   if (P.rows() < 16) return Q;
-  Q.centre = P.colwise().mean().transpose();
-  const Eigen::MatrixXd Y = P.rowwise() - Q.centre.transpose();
-  Q.scale = Y.rowwise().norm().maxCoeff();
+  const Eigen::MatrixXd Y = centred(P, Q);
   if (Q.scale > 0) fit_implicit<14>(Y / Q.scale, Q);
   return Q;
 }
