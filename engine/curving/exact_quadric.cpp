@@ -161,6 +161,20 @@ double coordinate_rounding(const Mesh& mesh) {
 
 namespace {
 
+/// Q is a pair of planes (its 4 x 4 symmetric matrix of rank 2, its quadratic part not 0): the
+/// vertices of a plane and of a strip beside it (a fillet's other two rows) lie on one, though
+/// no CAD face is one.
+bool plane_pair(const ExactQuadric& Q) {
+  const auto& c = Q.c;
+  if (Q.cyclide() || c.head<6>().squaredNorm() == 0) return false;
+  Eigen::Matrix4d A;
+  A << c[0], c[3] / 2, c[5] / 2, c[6] / 2, c[3] / 2, c[1], c[4] / 2, c[7] / 2, c[5] / 2, c[4] / 2, c[2], c[8] / 2,
+      c[6] / 2, c[7] / 2, c[8] / 2, c[9];
+  Eigen::Vector4d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d>(A, Eigen::EigenvaluesOnly).eigenvalues().cwiseAbs();
+  std::sort(ev.data(), ev.data() + 4);
+  return ev[1] <= 1e-6 * ev[3];
+}
+
 /// The quadric, else (opt.cyclides) the cyclide, through the vertices of `faces` (invalid unless
 /// they lie on it within tolerance, it is determined, and it is regular at `ends`: a crease
 /// between two planes lies on their product, singular along it). planes: a plane through them
@@ -182,7 +196,7 @@ ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::in
   ExactQuadric Q = fit_exact_quadric(P, planes);
   if (!on(Q) && opt.cyclides) Q = fit_exact_cyclide(P);
   Q.tolerance = tolerance;
-  Q.valid = on(Q);
+  Q.valid = on(Q) && !plane_pair(Q);
   double largest = 0;
   for (int v : verts) largest = std::max(largest, Q.gradient(mesh.V.row(v).transpose()).norm());
   for (int v : ends)
@@ -210,6 +224,34 @@ std::vector<char> agreeing(const Mesh& mesh, const ExactQuadric& Q, const std::v
 }
 
 bool all_agree(const std::vector<char>& agree) { return std::count(agree.begin(), agree.end(), 0) == 0; }
+
+/// True when the vertices on Q connected to v through mesh edges number at least
+/// opt.region_points (the search stops at confirm_points), and every vertex met next to them off
+/// Q is off by clear_factor x the tolerance: Q is one CAD face ending at a crease or a tangent
+/// junction (past a junction the distance grows as the curvature jump x the distance squared),
+/// not a smooth surface drifting off a quadric that fits it nearby (the distance grows gradually,
+/// a few x per ring). Why: a coarse half sphere's 40-point stencils all cross its junction with
+/// the cylinder, so none confirms its quadric.
+bool region_ends_clearly(const Mesh& mesh, const Topology& T, const ExactQuadric& Q, int v,
+                         const ExactQuadricOptions& opt, StencilScratch& scratch) {
+  std::vector<int>& on = scratch.frontier;
+  on.assign(1, v);
+  scratch.vertices.clear();
+  scratch.vertices.insert(v);
+  for (size_t i = 0; i < on.size(); ++i) {
+    if (static_cast<int>(on.size()) >= opt.confirm_points) return true;
+    for (auto [b, e] = T.edges_of(on[i]); b != e; ++b) {
+      const int u = T.other(*b, on[i]);
+      if (!scratch.vertices.insert(u)) continue;
+      const double d = Q.distance(mesh.V.row(u).transpose());
+      if (d <= Q.tolerance)
+        on.push_back(u);
+      else if (!(d >= opt.clear_factor * Q.tolerance))
+        return false;
+    }
+  }
+  return static_cast<int>(on.size()) >= opt.region_points;
+}
 
 }  // namespace
 
@@ -283,6 +325,14 @@ std::vector<char> exact_quadric_edges(const Mesh& mesh, const Topology& T, const
   return chord;
 }
 
+ExactQuadric wedge_plane(const Mesh& mesh, const Wedges& W, int w, const ExactQuadricOptions& opt) {
+  const std::vector<int> faces(W.wedge_faces.begin() + W.wedge_start[w], W.wedge_faces.begin() + W.wedge_start[w + 1]);
+  if (faces.empty()) return ExactQuadric();
+  ExactQuadric Q = fit_region(mesh, faces, {}, opt, true);
+  if (Q.cyclide() || Q.c.head<6>().squaredNorm() > 0) Q.valid = false;  // a fan of 12 or more: only its plane
+  return Q;
+}
+
 ExactQuadric wedge_exact_quadric(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
                                  const ExactQuadricOptions& opt, StencilScratch& scratch) {
   StencilOptions so;
@@ -304,7 +354,9 @@ ExactQuadric wedge_exact_quadric(const Mesh& mesh, const Topology& T, const Wedg
       // A quadric is confirmed by the larger stencil's quadric (not by a cyclide through it:
       // king's revolved profile), a cyclide by its cyclide; one the small stencil did not
       // determine may be determined by the larger.
-      if (Q.valid) Q.valid = C.valid && C.cyclide() == Q.cyclide();
+      if (Q.valid)
+        Q.valid = (C.valid && C.cyclide() == Q.cyclide()) ||
+                  (!Q.cyclide() && region_ends_clearly(mesh, T, Q, W.wedge_vertex[w], opt, scratch));
       else if (C.valid && C.cyclide()) Q = C;
     }
   }

@@ -67,6 +67,12 @@ struct ExactQuadricOptions {
   /// stencil's size, rounding does not (a marching-tetrahedra torus at grid 40 had 6 wedges within
   /// 1-8x rounding of a quadric over 16 points: P4 3.2e-6 -> 7.8e-6; over 40 points, none).
   int confirm_points = 40;
+  /// ... or the vertices on it connected to the wedge's must number this many and end where the
+  /// next are clearly off it, by clear_factor x the tolerance (a crease or a tangent junction:
+  /// region_ends_clearly in exact_quadric.cpp); then the fit is shared with the wedges round it
+  /// whose faces lie on it (share_exact_fits).
+  int region_points = 32;
+  double clear_factor = 100;
   /// The region does not cross edges turning by more than this factor x the tested edge's
   /// dihedral angle + 15 degrees: the creases round a coarse smooth face turn further than its
   /// chords (a cylinder's rim 80-90 degrees, a six-segment side's 23-38).
@@ -119,6 +125,10 @@ bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std
 /// -> 0.49% off the input).
 std::vector<char> exact_quadric_edges(const Mesh& mesh, const Topology& T, const std::vector<double>& face_angle,
                                       const std::vector<char>& candidate, const ExactQuadricOptions& opt = {});
+
+/// The plane of wedge w's faces where their corners lie on one to the tolerance (valid false if
+/// not): a plane's first row of vertices beside a fillet, whose stencils reach into it.
+ExactQuadric wedge_plane(const Mesh& mesh, const Wedges& W, int w, const ExactQuadricOptions& opt);
 
 /// The exact quadric or plane of wedge w (valid false if none): through the vertices of its stencil (not
 /// across features; grown until it holds wedge_points, then confirmed on confirm_points), regular

@@ -1,6 +1,7 @@
 #include "engine/curving/local_fit.hpp"
 
 #include "engine/curving/apex_fit.hpp"
+#include "engine/curving/share_exact_fits.hpp"
 
 #include "engine/core/stopwatch.hpp"
 
@@ -647,20 +648,9 @@ double wedge_turn_deg(const Mesh& mesh, const Wedges& W, int w, const Eigen::Vec
 /// fit `fit` (vertex, scale h), the normal turned to the quadric's on the same side.
 LocalFit exact_quadric_fit(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p, const FitOptions& opt,
                            FitScratch& scratch, const LocalFit& fit) {
-  LocalFit F;
   ExactQuadric Q = wedge_exact_quadric(mesh, T, W, w, opt.exact, scratch.stencil);
-  if (!Q.valid) return F;
-  F.surface = std::make_shared<const ExactQuadric>(std::move(Q));
-  F.o = fit.o;
-  F.h = fit.h;
-  F.n = F.surface->gradient(F.o).normalized();
-  if (F.n.dot(fit.n) < 0) F.n = -F.n;
-  tangent_frame(F.n, F.t1, F.t2);
-  F.exact = true;
-  F.degree = F.requested_degree = p;
-  F.c = Eigen::VectorXd::Zero(fit_coefficients(p));
-  F.pivot_ratio = 1;
-  return F;
+  if (!Q.valid) return LocalFit();
+  return exact_surface_fit(std::make_shared<const ExactQuadric>(std::move(Q)), fit, p);
 }
 
 }  // namespace
@@ -681,6 +671,12 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
   if (opt.exact_quadrics && p > 1 && (W.one_sided(w) || wedge_turn_deg(mesh, W, w, fit.n) > opt.exact.min_turn_deg)) {
     LocalFit exact = exact_quadric_fit(mesh, T, W, w, p, opt, scratch, fit);
     if (exact.exact && fit_is_sane(mesh, W, w, exact, opt)) return exact;
+  }
+  // A flat fan is on its plane, wherever its stencil reaches (a plane's first row beside a
+  // fillet, whose height fit bends toward the fillet).
+  if (opt.exact_quadrics && p > 1) {
+    ExactQuadric Q = wedge_plane(mesh, W, w, opt.exact);
+    if (Q.valid) return exact_surface_fit(std::make_shared<const ExactQuadric>(std::move(Q)), fit, p);
   }
   if (fit_is_sane(mesh, W, w, fit, opt)) return fit;
   LocalFit low;
@@ -1100,6 +1096,7 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
   });
   R.agreeing_fits = adopt_agreeing_fits(mesh, T, W, p, support, sstart, sindex, opt, gate_refused, R.fits);
   R.apex_fits = share_apex_fits(T, W, opt, R.fits);
+  if (opt.exact_quadrics && p > 1) R.shared_exact_fits = share_exact_fits(mesh, W, opt.exact, R.fits);
   R.degree_histogram.assign(p + 1, 0);
   double pts = 0;
   for (const auto& f : R.fits) {
