@@ -129,6 +129,60 @@ ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes) {
   return Q;
 }
 
+namespace {
+
+/// Gradients (rows: d/dy0, d/dy1, d/dy2) of the quadric's 10 monomials at y.
+Eigen::Matrix<double, 3, 10> monomial_gradients(const Eigen::Vector3d& y) {
+  Eigen::Matrix<double, 3, 10> G = Eigen::Matrix<double, 3, 10>::Zero();
+  G(0, 0) = 2 * y[0], G(1, 1) = 2 * y[1], G(2, 2) = 2 * y[2];
+  G(0, 3) = y[1], G(1, 3) = y[0], G(1, 4) = y[2], G(2, 4) = y[1], G(2, 5) = y[0], G(0, 5) = y[2];
+  G(0, 6) = G(1, 7) = G(2, 8) = 1;
+  return G;
+}
+
+/// Largest miss of quadric c (normalised coordinates) on the points Y and the normals N at
+/// points Z: a point's first-order distance, a normal's angle (sine) x scale, world units.
+double max_miss(const Eigen::MatrixXd& Y, const Eigen::MatrixXd& Z, const Eigen::MatrixXd& N, const Coefficients& c,
+                double scale) {
+  double d = max_distance(Y, c, scale);
+  for (Eigen::Index i = 0; i < Z.rows(); ++i) {
+    const Eigen::Vector3d g = monomial_gradients(Z.row(i).transpose()) * c.head<10>();
+    const Eigen::Vector3d n = N.row(i).transpose();
+    const double sine = g.cross(n).norm() / g.norm();
+    d = std::max(d, std::isfinite(sine) ? sine * scale : std::numeric_limits<double>::infinity());
+  }
+  return d;
+}
+
+}  // namespace
+
+ExactQuadric fit_tangent_quadric(const Eigen::MatrixXd& P, const Eigen::MatrixXd& X, const Eigen::MatrixXd& N) {
+  ExactQuadric Q;
+  if (P.rows() < 4 || P.rows() + 2 * X.rows() < 12) return Q;
+  const Eigen::MatrixXd Y = centred(P, Q) / Q.scale;
+  if (!(Q.scale > 0)) return Q;
+  const Eigen::MatrixXd Z = (X.rowwise() - Q.centre.transpose()) / Q.scale;
+  Eigen::Matrix<double, 10, 10> M = Eigen::Matrix<double, 10, 10>::Zero();
+  for (Eigen::Index i = 0; i < Y.rows(); ++i)
+    M.selfadjointView<Eigen::Lower>().rankUpdate(monomials(Y.row(i).transpose()).head<10>());
+  for (Eigen::Index i = 0; i < Z.rows(); ++i) {
+    // The gradient has no part along the tangent plane of the given normal.
+    const Eigen::Matrix<double, 3, 10> G = monomial_gradients(Z.row(i).transpose());
+    const Eigen::Vector3d n = N.row(i).transpose().normalized(), t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+    M.selfadjointView<Eigen::Lower>().rankUpdate((t1.transpose() * G).transpose());
+    M.selfadjointView<Eigen::Lower>().rankUpdate((t2.transpose() * G).transpose());
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 10, 10>> eig(M.selfadjointView<Eigen::Lower>());
+  if (eig.info() != Eigen::Success) return Q;
+  Coefficients runner_up = Coefficients::Zero();
+  Q.c.head<10>() = eig.eigenvectors().col(0);
+  runner_up.head<10>() = eig.eigenvectors().col(1);
+  Q.max_residual = max_miss(Y, Z, N, Q.c, Q.scale);
+  Q.runner_up = max_miss(Y, Z, N, runner_up, Q.scale);
+  Q.valid = Q.c.allFinite() && std::isfinite(Q.max_residual);
+  return Q;
+}
+
 ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P) {
   ExactQuadric Q;
   if (P.rows() < 16) return Q;
@@ -159,11 +213,6 @@ double coordinate_rounding(const Mesh& mesh) {
   return std::max(0.5 * std::pow(10.0, 1 - most), std::numeric_limits<double>::epsilon());
 }
 
-namespace {
-
-/// Q is a pair of planes (its 4 x 4 symmetric matrix of rank 2, its quadratic part not 0): the
-/// vertices of a plane and of a strip beside it (a fillet's other two rows) lie on one, though
-/// no CAD face is one.
 bool plane_pair(const ExactQuadric& Q) {
   const auto& c = Q.c;
   if (Q.cyclide() || c.head<6>().squaredNorm() == 0) return false;
@@ -174,6 +223,8 @@ bool plane_pair(const ExactQuadric& Q) {
   std::sort(ev.data(), ev.data() + 4);
   return ev[1] <= 1e-6 * ev[3];
 }
+
+namespace {
 
 /// The quadric, else (opt.cyclides) the cyclide, through the vertices of `faces` (invalid unless
 /// they lie on it within tolerance, it is determined, and it is regular at `ends`: a crease

@@ -54,6 +54,18 @@ ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes = false);
 /// many cyclides (the sphere times any sphere), so try the quadric first.
 ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P);
 
+/// The quadric through the points P whose gradient at the points X (rows) is along the normals N
+/// (rows): least squares of both, the smallest eigenvector as above. max_residual and runner_up
+/// count a normal's miss as its angle (sine) x scale. Where a strip between exact surfaces (a
+/// fillet two triangles across) has too few points to determine its quadric, the normals along
+/// its rims, where it is tangent to them, do.
+ExactQuadric fit_tangent_quadric(const Eigen::MatrixXd& P, const Eigen::MatrixXd& X, const Eigen::MatrixXd& N);
+
+/// Q is a pair of planes (its 4 x 4 symmetric matrix of rank 2, its quadratic part not 0): the
+/// vertices of a plane and of a strip beside it (a fillet's other two rows) lie on one, though
+/// no CAD face is one.
+bool plane_pair(const ExactQuadric& Q);
+
 /// Relative rounding of the mesh's coordinates: 2^-24 where all are float32 (binary STL), else
 /// half a unit in the last of the fewest decimal digits that give back sampled coordinates
 /// (text formats), at least double epsilon.

@@ -1096,7 +1096,10 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
   });
   R.agreeing_fits = adopt_agreeing_fits(mesh, T, W, p, support, sstart, sindex, opt, gate_refused, R.fits);
   R.apex_fits = share_apex_fits(T, W, opt, R.fits);
-  if (opt.exact_quadrics && p > 1) R.shared_exact_fits = share_exact_fits(mesh, W, opt.exact, R.fits);
+  if (opt.exact_quadrics && p > 1) {
+    R.shared_exact_fits = share_exact_fits(mesh, W, opt.exact, R.fits);
+    R.shared_exact_fits += tangent_exact_fits(mesh, T, W, opt.exact, R.fits);
+  }
   R.degree_histogram.assign(p + 1, 0);
   double pts = 0;
   for (const auto& f : R.fits) {

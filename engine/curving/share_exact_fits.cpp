@@ -3,6 +3,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -38,6 +39,81 @@ bool wedge_faces_on(const Mesh& mesh, const Wedges& W, int w, const ExactQuadric
     }
   }
   return side != 0;
+}
+
+namespace {
+
+/// The exact surface tangent at v: the first exact fit of a corner of a face at v outside wedge
+/// w that passes through v; its normal there in n.
+bool tangent_normal(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits, int w,
+                    int v, Eigen::Vector3d& n) {
+  const Eigen::Vector3d x = mesh.V.row(v).transpose();
+  for (auto [b, e] = T.faces_of(v); b != e; ++b) {
+    int j = 0;
+    while (mesh.F(*b, j) != v) ++j;
+    if (W.corner_wedge(*b, j) == w) continue;
+    for (int k = 0; k < 3; ++k) {
+      const LocalFit& F = fits[W.corner_wedge(*b, k)];
+      if (F.exact && F.surface->contains(x)) {
+        n = F.surface->gradient(x).normalized();
+        return n.allFinite();
+      }
+    }
+  }
+  return false;
+}
+
+/// Wedge w's quadric through its faces' corners, tangent to the exact surfaces through them
+/// (fit_tangent_quadric; valid false where none is determined).
+ExactQuadric tangent_wedge_quadric(const Mesh& mesh, const Topology& T, const Wedges& W,
+                                   const std::vector<LocalFit>& fits, int w, const ExactQuadricOptions& opt) {
+  std::vector<int> verts;
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i)
+    for (int j = 0; j < 3; ++j) verts.push_back(mesh.F(W.wedge_faces[i], j));
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  Eigen::MatrixXd P(verts.size(), 3), X(verts.size(), 3), N(verts.size(), 3);
+  int m = 0;
+  for (size_t i = 0; i < verts.size(); ++i) {
+    P.row(i) = mesh.V.row(verts[i]);
+    Eigen::Vector3d n;
+    if (tangent_normal(mesh, T, W, fits, w, verts[i], n)) X.row(m) = P.row(i), N.row(m++) = n.transpose();
+  }
+  ExactQuadric Q;
+  if (m < 2) return Q;
+  Q = fit_tangent_quadric(P, X.topRows(m), N.topRows(m));
+  Q.tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
+  Q.valid = Q.valid && Q.max_residual <= Q.tolerance && Q.runner_up >= opt.unique * Q.tolerance && !plane_pair(Q) &&
+            wedge_faces_on(mesh, W, w, Q, opt);
+  return Q;
+}
+
+}  // namespace
+
+long long tangent_exact_fits(const Mesh& mesh, const Topology& T, const Wedges& W, const ExactQuadricOptions& opt,
+                             std::vector<LocalFit>& fits) {
+  const int nw = W.num_wedges();
+  long long fitted = 0;
+  std::vector<std::shared_ptr<const ExactQuadric>> found(nw);
+  for (bool changed = true; changed;) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, nw, 64), [&](const tbb::blocked_range<int>& r) {
+      for (int w = r.begin(); w < r.end(); ++w) {
+        found[w].reset();
+        if (fits[w].exact || fits[w].apex || W.is_cone(W.wedge_vertex[w])) continue;
+        ExactQuadric Q = tangent_wedge_quadric(mesh, T, W, fits, w, opt);
+        if (Q.valid) found[w] = std::make_shared<const ExactQuadric>(std::move(Q));
+      }
+    });
+    changed = false;
+    for (int w = 0; w < nw; ++w)
+      if (found[w]) {
+        fits[w] = exact_surface_fit(found[w], fits[w], fits[w].requested_degree);
+        changed = true;
+        ++fitted;
+      }
+    if (changed) fitted += share_exact_fits(mesh, W, opt, fits);
+  }
+  return fitted;
 }
 
 long long share_exact_fits(const Mesh& mesh, const Wedges& W, const ExactQuadricOptions& opt, std::vector<LocalFit>& fits) {

@@ -3,6 +3,7 @@
 // quadric, but its own faces may all lie on a neighbour's.
 #pragma once
 #include "engine/core/mesh.hpp"
+#include "engine/core/topology.hpp"
 #include "engine/curving/exact_quadric.hpp"
 #include "engine/curving/local_fit.hpp"
 #include "engine/curving/stencil.hpp"
@@ -24,5 +25,12 @@ bool wedge_faces_on(const Mesh& mesh, const Wedges& W, int w, const ExactQuadric
 /// wedge sharing one of their faces take that surface, repeated until none does (each round reads
 /// the last one's fits only: deterministic). Returns how many took one.
 long long share_exact_fits(const Mesh& mesh, const Wedges& W, const ExactQuadricOptions& opt, std::vector<LocalFit>& fits);
+
+/// Wedges still without an exact fit whose faces' corners lie on a quadric tangent, at those of
+/// them on another exact surface, to that surface (a fillet two triangles across between planes,
+/// a corner sphere between fillets: too few points of their own to determine it) take that
+/// quadric; then share_exact_fits; repeated until none does. Returns how many took one either way.
+long long tangent_exact_fits(const Mesh& mesh, const Topology& T, const Wedges& W, const ExactQuadricOptions& opt,
+                             std::vector<LocalFit>& fits);
 
 }  // namespace hocurve
