@@ -378,7 +378,18 @@ std::vector<char> exact_quadric_edges(const Mesh& mesh, const Topology& T, const
 
 ExactQuadric wedge_plane(const Mesh& mesh, const Wedges& W, int w, const ExactQuadricOptions& opt) {
   const std::vector<int> faces(W.wedge_faces.begin() + W.wedge_start[w], W.wedge_faces.begin() + W.wedge_start[w + 1]);
-  if (faces.empty()) return ExactQuadric();
+  // Five corners apart (by a thousandth of the fan's size): a needle's nearly coincident ends
+  // leave three, and any three lie on a plane (a marching-tetrahedra torus: P4 2.5e-6 -> 3.9e-4).
+  std::vector<Eigen::Vector3d> corners;
+  for (int f : faces)
+    for (int j = 0; j < 3; ++j) corners.push_back(mesh.V.row(mesh.F(f, j)).transpose());
+  double size = 0;
+  for (const Eigen::Vector3d& x : corners) size = std::max(size, (x - corners[0]).norm());
+  std::vector<Eigen::Vector3d> apart;
+  for (const Eigen::Vector3d& x : corners)
+    if (std::none_of(apart.begin(), apart.end(), [&](const Eigen::Vector3d& y) { return (x - y).norm() <= 1e-3 * size; }))
+      apart.push_back(x);
+  if (apart.size() < 5) return ExactQuadric();
   ExactQuadric Q = fit_region(mesh, faces, {}, opt, true);
   if (Q.cyclide() || Q.c.head<6>().squaredNorm() > 0) Q.valid = false;  // a fan of 12 or more: only its plane
   return Q;

@@ -632,9 +632,6 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
   return fit_wedge_unchecked(mesh, T, W, w, p, support, support_start, support_index, opt, scratch);
 }
 
-namespace {
-
-/// Largest angle in degrees between a face normal of wedge w and n.
 double wedge_turn_deg(const Mesh& mesh, const Wedges& W, int w, const Eigen::Vector3d& n) {
   double c = 1;
   for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
@@ -643,6 +640,8 @@ double wedge_turn_deg(const Mesh& mesh, const Wedges& W, int w, const Eigen::Vec
   }
   return std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / std::numbers::pi;
 }
+
+namespace {
 
 /// Wedge w's exact quadric as a fit (exact false where it has none), in the frame of its height
 /// fit `fit` (vertex, scale h), the normal turned to the quadric's on the same side.

@@ -354,6 +354,9 @@ double leave_one_out_residual(const LocalFit& F, const Eigen::MatrixXd& P, const
 LocalFit reference_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n0, double h, const Eigen::MatrixXd& P,
                        const Eigen::VectorXd& w, int p, const FitOptions& opt);
 
+/// Largest angle in degrees between a face normal of wedge w and n.
+double wedge_turn_deg(const Mesh& mesh, const Wedges& W, int w, const Eigen::Vector3d& n);
+
 /// Result of fitting every wedge.
 struct FitResult {
   std::vector<LocalFit> fits;             ///< per wedge

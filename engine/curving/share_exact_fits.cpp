@@ -43,10 +43,19 @@ bool wedge_faces_on(const Mesh& mesh, const Wedges& W, int w, const ExactQuadric
 
 namespace {
 
+/// Wedge w has no exact fit (nor a cone model), and its faces turn from its fit's normal by more
+/// than min_turn_deg, or it is one-sided: where fit_wedge tries its own. Below, its height fit is
+/// closer than a quadric fitted to rounding (a 20k-triangle ellipsoid's flatter half took its
+/// neighbours' quadrics: P4 1.9e-8 -> 7.0e-9 from 5k triangles, not 6e-10).
+bool may_take(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits, int w, const ExactQuadricOptions& opt) {
+  return !fits[w].exact && !fits[w].apex && !W.is_cone(W.wedge_vertex[w]) &&
+         (W.one_sided(w) || wedge_turn_deg(mesh, W, w, fits[w].n) > opt.min_turn_deg);
+}
+
 /// The exact surface tangent at v: the first exact fit of a corner of a face at v outside wedge
-/// w that passes through v; its normal there in n.
-bool tangent_normal(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits, int w,
-                    int v, Eigen::Vector3d& n) {
+/// w that passes through v (null if none); its normal there in n.
+const ExactQuadric* tangent_normal(const Mesh& mesh, const Topology& T, const Wedges& W,
+                                   const std::vector<LocalFit>& fits, int w, int v, Eigen::Vector3d& n) {
   const Eigen::Vector3d x = mesh.V.row(v).transpose();
   for (auto [b, e] = T.faces_of(v); b != e; ++b) {
     int j = 0;
@@ -56,11 +65,11 @@ bool tangent_normal(const Mesh& mesh, const Topology& T, const Wedges& W, const 
       const LocalFit& F = fits[W.corner_wedge(*b, k)];
       if (F.exact && F.surface->contains(x)) {
         n = F.surface->gradient(x).normalized();
-        return n.allFinite();
+        return n.allFinite() ? F.surface.get() : nullptr;
       }
     }
   }
-  return false;
+  return nullptr;
 }
 
 /// Wedge w's quadric through its faces' corners, tangent to the exact surfaces through them
@@ -74,13 +83,27 @@ ExactQuadric tangent_wedge_quadric(const Mesh& mesh, const Topology& T, const We
   verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
   Eigen::MatrixXd P(verts.size(), 3), X(verts.size(), 3), N(verts.size(), 3);
   int m = 0;
+  std::vector<const ExactQuadric*> tangent;
   for (size_t i = 0; i < verts.size(); ++i) {
     P.row(i) = mesh.V.row(verts[i]);
     Eigen::Vector3d n;
-    if (tangent_normal(mesh, T, W, fits, w, verts[i], n)) X.row(m) = P.row(i), N.row(m++) = n.transpose();
+    if (const ExactQuadric* S = tangent_normal(mesh, T, W, fits, w, verts[i], n)) {
+      X.row(m) = P.row(i), N.row(m++) = n.transpose();
+      if (std::find(tangent.begin(), tangent.end(), S) == tangent.end()) tangent.push_back(S);
+    }
   }
+  // Some corner must lie clearly off every surface it is tangent to: else the faces are on those
+  // surfaces (needles whose normals disagree with them), and a quadric tangent to them at a few
+  // close points only osculates them (a marching-tetrahedra torus: P4 2.5e-6 -> 3.9e-4).
+  auto clearly_off = [&](Eigen::Index i) {
+    return std::all_of(tangent.begin(), tangent.end(), [&](const ExactQuadric* S) {
+      return S->distance(P.row(i).transpose()) >= opt.clear_factor * S->tolerance;
+    });
+  };
   ExactQuadric Q;
-  if (m < 2) return Q;
+  bool off = false;
+  for (Eigen::Index i = 0; i < P.rows() && !off; ++i) off = clearly_off(i);
+  if (m < 2 || !off) return Q;
   Q = fit_tangent_quadric(P, X.topRows(m), N.topRows(m));
   Q.tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
   Q.valid = Q.valid && Q.max_residual <= Q.tolerance && Q.runner_up >= opt.unique * Q.tolerance && !plane_pair(Q) &&
@@ -95,11 +118,13 @@ long long tangent_exact_fits(const Mesh& mesh, const Topology& T, const Wedges& 
   const int nw = W.num_wedges();
   long long fitted = 0;
   std::vector<std::shared_ptr<const ExactQuadric>> found(nw);
-  for (bool changed = true; changed;) {
+  // Nothing to be tangent to (scans, smooth meshes): no pass.
+  bool changed = std::any_of(fits.begin(), fits.end(), [](const LocalFit& F) { return F.exact; });
+  while (changed) {
     tbb::parallel_for(tbb::blocked_range<int>(0, nw, 64), [&](const tbb::blocked_range<int>& r) {
       for (int w = r.begin(); w < r.end(); ++w) {
         found[w].reset();
-        if (fits[w].exact || fits[w].apex || W.is_cone(W.wedge_vertex[w])) continue;
+        if (!may_take(mesh, W, fits, w, opt)) continue;
         ExactQuadric Q = tangent_wedge_quadric(mesh, T, W, fits, w, opt);
         if (Q.valid) found[w] = std::make_shared<const ExactQuadric>(std::move(Q));
       }
@@ -124,7 +149,7 @@ long long share_exact_fits(const Mesh& mesh, const Wedges& W, const ExactQuadric
     std::fill(from.begin(), from.end(), -1);
     tbb::parallel_for(tbb::blocked_range<int>(0, nw, 256), [&](const tbb::blocked_range<int>& r) {
       for (int w = r.begin(); w < r.end(); ++w) {
-        if (fits[w].exact || fits[w].apex || W.is_cone(W.wedge_vertex[w])) continue;
+        if (!may_take(mesh, W, fits, w, opt)) continue;
         for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1] && from[w] < 0; ++i)
           for (int j = 0; j < 3 && from[w] < 0; ++j) {
             const int u = W.corner_wedge(W.wedge_faces[i], j);

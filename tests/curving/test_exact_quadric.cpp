@@ -120,6 +120,39 @@ TEST_CASE("fit_exact_quadric: exact on a quadric's points, undetermined on two c
   CHECK(P.runner_up > 0.1);
 }
 
+TEST_CASE("fit_tangent_quadric: a fillet's three rows and its rims' normals determine its cylinder") {
+  // A quarter-round fillet of radius 0.15 along x between the planes z = 0 and y = 0 (axis
+  // y = z = 0.15), two triangles across: its points lie on three lines, which a cylinder and
+  // every other quadric through them share, until the rims' normals (the planes') are given.
+  const double r = 0.15;
+  std::vector<Eigen::Vector3d> pts, at, normals;
+  for (int i = 0; i < 3; ++i) {
+    const double x = 0.1 * i + 0.03 * (i == 1);
+    pts.emplace_back(x, r, 0);                                        // rim on z = 0
+    pts.emplace_back(x + 0.05, r - r * std::sqrt(0.5), r - r * std::sqrt(0.5));  // middle row
+    pts.emplace_back(x, 0, r);                                        // rim on y = 0
+    at.emplace_back(x, r, 0), normals.emplace_back(0, 0, -1);
+    at.emplace_back(x, 0, r), normals.emplace_back(0, -1, 0);
+  }
+  CHECK(fit_exact_quadric(rows(pts)).runner_up < 1e-10);  // 9 points on 3 lines: undetermined
+  const ExactQuadric Q = fit_tangent_quadric(rows(pts), rows(at), rows(normals));
+  REQUIRE(Q.valid);
+  CHECK(Q.max_residual < 1e-12);
+  CHECK(Q.runner_up > 1e-4);
+  CHECK(!plane_pair(Q));
+  for (double a : {0.2, 0.7, 1.3}) {  // the arc between the rows is on it
+    const Eigen::Vector3d x(0.37, r - r * std::sin(a), r - r * std::cos(a));
+    CHECK(Q.distance(x) < 1e-12);
+  }
+  // Without the middle row the points lie on the planes z = 0 and y = 0 too: a pair of planes,
+  // no CAD face, and what plane_pair tells apart.
+  std::vector<Eigen::Vector3d> two;
+  for (int i = 0; i < 6; ++i) two.emplace_back(0.1 * i, 0.2 + 0.15 * std::sin(2.1 * i), 0), two.emplace_back(0.1 * i, 0, 0.2 + 0.1 * std::cos(1.7 * i));
+  const ExactQuadric pair = fit_exact_quadric(rows(two));
+  CHECK(pair.max_residual < 1e-12);
+  CHECK(plane_pair(pair));
+}
+
 TEST_CASE("coordinate_rounding: float32, decimal text, full doubles") {
   Mesh m = icosphere(1);
   CHECK(coordinate_rounding(m) < 1e-15);

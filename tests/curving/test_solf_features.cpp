@@ -856,12 +856,18 @@ TEST_CASE("tangent junctions: the filleted box's face borders found from the tri
       borders += border;
       found += border && F.edge_feature[e];
     }
+    // The junction test's own effect: without exact fits, which since session 31 fit these boxes
+    // across their junctions too (share_exact_fits.hpp).
     CurveOptions o;
+    const double err_exact = surface_error(curve_mesh(stl, o).mesh, dist);
+    o.fit.exact_quadrics = false;
     const CurveResult R = curve_mesh(stl, o);
     o.features.tangent_junctions = false;
     const double err = surface_error(R.mesh, dist), err_without = surface_error(curve_mesh(stl, o).mesh, dist);
     MESSAGE("h = " << h << ": " << F.junction_edges << " junction edges, " << found << " of the " << borders
-                   << " CAD face borders; P4 " << err << " (without the test: " << err_without << ")");
+                   << " CAD face borders; P4 without exact fits " << err << " (without the test: " << err_without
+                   << "); with exact fits " << err_exact);
+    CHECK(err_exact <= 1.25 * err);
     CHECK(F.sharp_edges == 0);
     if (h > 0.075) {
       CHECK(F.junction_edges == 0);
@@ -901,13 +907,17 @@ TEST_CASE("tangent junctions: a curved face too narrow for its own fits is fitte
   const double r = 0.25;
   const Mesh stl = filletbox_stl(0.05, r);
   CurveOptions o;
+  const double err_exact = curve_filletbox(stl, r, o).second;
+  o.fit.exact_quadrics = false;  // the junctions' own effect (exact fits cross them since session 31)
   const auto [R, err] = curve_filletbox(stl, r, o);
   o.features.junction_min_width = 0;
   const auto [narrow, err_narrow] = curve_filletbox(stl, r, o);
   o.features.tangent_junctions = false;
   const double err_none = curve_filletbox(stl, r, o).second;
-  MESSAGE("P4 " << err << " (" << R.features.junction_edges << " junction edges); narrow faces kept: " << err_narrow
-                << " (" << narrow.features.junction_edges << "); no junctions: " << err_none);
+  MESSAGE("P4 without exact fits " << err << " (" << R.features.junction_edges << " junction edges); narrow faces kept: "
+                << err_narrow << " (" << narrow.features.junction_edges << "); no junctions: " << err_none
+                << "; with exact fits " << err_exact);
+  CHECK(err_exact <= 1.25 * err);
   CHECK(R.features.junction_edges > 0);
   CHECK(R.features.junction_edges < narrow.features.junction_edges);
   CHECK(err < 1.25 * err_none);
@@ -922,11 +932,15 @@ TEST_CASE("tangent junctions: a border four edges long is found from its two mid
   const double r = 0.2;
   const Mesh stl = filletbox_stl(0.05, r);
   CurveOptions o;
+  const double err_exact = curve_filletbox(stl, r, o).second;
+  o.fit.exact_quadrics = false;  // the junctions' own effect (exact fits cross them since session 31)
   const auto [R, err] = curve_filletbox(stl, r, o);
   o.features.junction_min_edges = 3;
   const auto [three, err_three] = curve_filletbox(stl, r, o);
-  MESSAGE("P4 " << err << " (" << R.features.junction_edges << " junction edges); curves of three edges or more: "
-                << err_three << " (" << three.features.junction_edges << ")");
+  MESSAGE("P4 without exact fits " << err << " (" << R.features.junction_edges
+                << " junction edges); curves of three edges or more: " << err_three << " ("
+                << three.features.junction_edges << "); with exact fits " << err_exact);
+  CHECK(err_exact <= 1.25 * err);
   CHECK(R.features.junction_edges > three.features.junction_edges);
   CHECK(err < 1e-6);
   CHECK(err_three > 100 * err);
