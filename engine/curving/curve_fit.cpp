@@ -232,6 +232,12 @@ CurveFitResult fit_feature_curves(const Mesh& mesh, const Topology& T, const Fea
   const auto t0 = Clock::now();
   CurveFitResult R;
   const int ne = T.num_edges();
+  // Without feature edges no fits (placement then needs none): building the placeholders of a
+  // 200k-face sphere's 300k edges took 0.27 s.
+  if (std::none_of(feat.edge_feature.begin(), feat.edge_feature.end(), [](char c) { return c != 0; })) {
+    R.seconds = seconds_since(t0);
+    return R;
+  }
   R.fits.resize(2 * static_cast<size_t>(ne));
   tbb::parallel_for(tbb::blocked_range<int>(0, ne), [&](const tbb::blocked_range<int>& r) {
     for (int e = r.begin(); e < r.end(); ++e) {
