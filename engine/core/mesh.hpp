@@ -2,6 +2,7 @@
 #pragma once
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,17 @@ struct Mesh {
 inline Eigen::Vector3d face_normal(const Mesh& mesh, int f) {
   const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
   return (b - a).cross(c - a);
+}
+
+/// The distinct corners of the faces [first, last) (face indices), sorted.
+inline std::vector<int> face_corners(const Mesh& mesh, const int* first, const int* last) {
+  std::vector<int> v;
+  v.reserve(3 * (last - first));
+  for (const int* f = first; f != last; ++f)
+    for (int j = 0; j < 3; ++j) v.push_back(mesh.F(*f, j));
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  return v;
 }
 
 /// A straight triangle has zero area when |e1 x e2| <= kZeroArea x (its longest edge)^2: its

@@ -131,12 +131,19 @@ ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes) {
 
 namespace {
 
-/// Gradients (rows: d/dy0, d/dy1, d/dy2) of the quadric's 10 monomials at y.
-Eigen::Matrix<double, 3, 10> monomial_gradients(const Eigen::Vector3d& y) {
-  Eigen::Matrix<double, 3, 10> G = Eigen::Matrix<double, 3, 10>::Zero();
+/// Gradients (rows: d/dy0, d/dy1, d/dy2) of the 14 monomials at y (monomials()).
+Eigen::Matrix<double, 3, 14> monomial_gradients(const Eigen::Vector3d& y) {
+  Eigen::Matrix<double, 3, 14> G = Eigen::Matrix<double, 3, 14>::Zero();
   G(0, 0) = 2 * y[0], G(1, 1) = 2 * y[1], G(2, 2) = 2 * y[2];
   G(0, 3) = y[1], G(1, 3) = y[0], G(1, 4) = y[2], G(2, 4) = y[1], G(2, 5) = y[0], G(0, 5) = y[2];
   G(0, 6) = G(1, 7) = G(2, 8) = 1;
+  // d(|y|^2 y_k) = 2 y_k y + |y|^2 e_k, d|y|^4 = 4 |y|^2 y.
+  const double s = y.squaredNorm();
+  for (int k = 0; k < 3; ++k) {
+    G.col(10 + k) = 2 * y[k] * y;
+    G(k, 10 + k) += s;
+  }
+  G.col(13) = 4 * s * y;
   return G;
 }
 
@@ -146,7 +153,7 @@ double max_miss(const Eigen::MatrixXd& Y, const Eigen::MatrixXd& Z, const Eigen:
                 double scale) {
   double d = max_distance(Y, c, scale);
   for (Eigen::Index i = 0; i < Z.rows(); ++i) {
-    const Eigen::Vector3d g = monomial_gradients(Z.row(i).transpose()) * c.head<10>();
+    const Eigen::Vector3d g = monomial_gradients(Z.row(i).transpose()) * c;
     const Eigen::Vector3d n = N.row(i).transpose();
     const double sine = g.cross(n).norm() / g.norm();
     d = std::max(d, std::isfinite(sine) ? sine * scale : std::numeric_limits<double>::infinity());
@@ -156,31 +163,46 @@ double max_miss(const Eigen::MatrixXd& Y, const Eigen::MatrixXd& Z, const Eigen:
 
 }  // namespace
 
-ExactQuadric fit_tangent_quadric(const Eigen::MatrixXd& P, const Eigen::MatrixXd& X, const Eigen::MatrixXd& N) {
+namespace {
+
+/// fit_tangent_quadric on the first N monomials (10: quadrics, 14: cyclides).
+template <int N>
+ExactQuadric fit_tangent(const Eigen::MatrixXd& P, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Nrm) {
   ExactQuadric Q;
-  if (P.rows() < 4 || P.rows() + 2 * X.rows() < 12) return Q;
+  if (P.rows() < 4 || P.rows() + 2 * X.rows() < N + 2) return Q;
   const Eigen::MatrixXd Y = centred(P, Q) / Q.scale;
   if (!(Q.scale > 0)) return Q;
   const Eigen::MatrixXd Z = (X.rowwise() - Q.centre.transpose()) / Q.scale;
-  Eigen::Matrix<double, 10, 10> M = Eigen::Matrix<double, 10, 10>::Zero();
+  Eigen::Matrix<double, N, N> M = Eigen::Matrix<double, N, N>::Zero();
   for (Eigen::Index i = 0; i < Y.rows(); ++i)
-    M.selfadjointView<Eigen::Lower>().rankUpdate(monomials(Y.row(i).transpose()).head<10>());
+    M.template selfadjointView<Eigen::Lower>().rankUpdate(monomials(Y.row(i).transpose()).template head<N>());
   for (Eigen::Index i = 0; i < Z.rows(); ++i) {
     // The gradient has no part along the tangent plane of the given normal.
-    const Eigen::Matrix<double, 3, 10> G = monomial_gradients(Z.row(i).transpose());
-    const Eigen::Vector3d n = N.row(i).transpose().normalized(), t1 = n.unitOrthogonal(), t2 = n.cross(t1);
-    M.selfadjointView<Eigen::Lower>().rankUpdate((t1.transpose() * G).transpose());
-    M.selfadjointView<Eigen::Lower>().rankUpdate((t2.transpose() * G).transpose());
+    const Eigen::Matrix<double, 3, N> G = monomial_gradients(Z.row(i).transpose()).template leftCols<N>();
+    const Eigen::Vector3d n = Nrm.row(i).transpose().normalized(), t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+    M.template selfadjointView<Eigen::Lower>().rankUpdate((t1.transpose() * G).transpose());
+    M.template selfadjointView<Eigen::Lower>().rankUpdate((t2.transpose() * G).transpose());
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 10, 10>> eig(M.selfadjointView<Eigen::Lower>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eig(M.template selfadjointView<Eigen::Lower>());
   if (eig.info() != Eigen::Success) return Q;
   Coefficients runner_up = Coefficients::Zero();
-  Q.c.head<10>() = eig.eigenvectors().col(0);
-  runner_up.head<10>() = eig.eigenvectors().col(1);
-  Q.max_residual = max_miss(Y, Z, N, Q.c, Q.scale);
-  Q.runner_up = max_miss(Y, Z, N, runner_up, Q.scale);
+  Q.c.setZero();
+  Q.c.template head<N>() = eig.eigenvectors().col(0);
+  runner_up.template head<N>() = eig.eigenvectors().col(1);
+  Q.max_residual = max_miss(Y, Z, Nrm, Q.c, Q.scale);
+  Q.runner_up = max_miss(Y, Z, Nrm, runner_up, Q.scale);
   Q.valid = Q.c.allFinite() && std::isfinite(Q.max_residual);
   return Q;
+}
+
+}  // namespace
+
+ExactQuadric fit_tangent_quadric(const Eigen::MatrixXd& P, const Eigen::MatrixXd& X, const Eigen::MatrixXd& N) {
+  return fit_tangent<10>(P, X, N);
+}
+
+ExactQuadric fit_tangent_cyclide(const Eigen::MatrixXd& P, const Eigen::MatrixXd& X, const Eigen::MatrixXd& N) {
+  return fit_tangent<14>(P, X, N);
 }
 
 ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P) {
@@ -224,6 +246,17 @@ bool plane_pair(const ExactQuadric& Q) {
   return ev[1] <= 1e-6 * ev[3];
 }
 
+bool face_agrees(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side) {
+  const double min_cos = std::cos(opt.max_normal_angle_deg * std::numbers::pi / 180.0);
+  const Eigen::Vector3d n = face_normal(mesh, f).normalized();
+  for (int j = 0; j < 3; ++j) {
+    const double c = n.dot(Q.gradient(mesh.V.row(mesh.F(f, j)).transpose()).normalized());
+    if (side == 0) side = c > 0 ? 1 : -1;
+    if (!(side * c >= min_cos)) return false;
+  }
+  return true;
+}
+
 namespace {
 
 /// The quadric, else (opt.cyclides) the cyclide, through the vertices of `faces` (invalid unless
@@ -232,11 +265,7 @@ namespace {
 /// is taken too.
 ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::initializer_list<int> ends,
                         const ExactQuadricOptions& opt, bool planes = false) {
-  std::vector<int> verts;
-  for (int f : faces)
-    for (int j = 0; j < 3; ++j) verts.push_back(mesh.F(f, j));
-  std::sort(verts.begin(), verts.end());
-  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  const std::vector<int> verts = face_corners(mesh, faces.data(), faces.data() + faces.size());
   Eigen::MatrixXd P(verts.size(), 3);
   for (size_t i = 0; i < verts.size(); ++i) P.row(i) = mesh.V.row(verts[i]);
   const double tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
@@ -263,14 +292,9 @@ bool off_every_cyclide(const ExactQuadric& Q) { return Q.cyclide() && !(Q.max_re
 /// corners, on the side of faces[0].
 std::vector<char> agreeing(const Mesh& mesh, const ExactQuadric& Q, const std::vector<int>& faces,
                            const ExactQuadricOptions& opt) {
-  const double min_cos = std::cos(opt.max_normal_angle_deg * std::numbers::pi / 180.0);
-  const double side = face_normal(mesh, faces[0]).dot(Q.gradient(mesh.V.row(mesh.F(faces[0], 0)).transpose())) > 0 ? 1 : -1;
   std::vector<char> agree(faces.size(), 1);
-  for (size_t i = 0; i < faces.size(); ++i) {
-    const Eigen::Vector3d n = face_normal(mesh, faces[i]).normalized();
-    for (int j = 0; j < 3; ++j)
-      if (!(side * n.dot(Q.gradient(mesh.V.row(mesh.F(faces[i], j)).transpose()).normalized()) >= min_cos)) agree[i] = 0;
-  }
+  double side = 0;
+  for (size_t i = 0; i < faces.size(); ++i) agree[i] = face_agrees(mesh, faces[i], Q, opt, side);
   return agree;
 }
 

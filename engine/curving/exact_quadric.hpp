@@ -61,6 +61,10 @@ ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P);
 /// its rims, where it is tangent to them, do.
 ExactQuadric fit_tangent_quadric(const Eigen::MatrixXd& P, const Eigen::MatrixXd& X, const Eigen::MatrixXd& N);
 
+/// The same for Darboux cyclides: a torus fillet between a cylinder and a plane, its points one
+/// or two rows across, is determined by them with the normals along both rims.
+ExactQuadric fit_tangent_cyclide(const Eigen::MatrixXd& P, const Eigen::MatrixXd& X, const Eigen::MatrixXd& N);
+
 /// Q is a pair of planes (its 4 x 4 symmetric matrix of rank 2, its quadratic part not 0): the
 /// vertices of a plane and of a strip beside it (a fillet's other two rows) lie on one, though
 /// no CAD face is one.
@@ -85,6 +89,11 @@ struct ExactQuadricOptions {
   /// whose faces lie on it (share_exact_fits).
   int region_points = 32;
   double clear_factor = 100;
+  /// A face lies on a neighbour's exact surface (share_exact_fits.hpp: face_on) where its corners
+  /// are within this x the surface's tolerance: the surface was fitted to other points, and at a
+  /// junction rim beyond them it extrapolates (a float32 filleted box at h = 0.1: rim corners
+  /// 1.04x the tolerance off their fillet's cylinder, which 80 faces then did not take).
+  double on_factor = 2;
   /// The region does not cross edges turning by more than this factor x the tested edge's
   /// dihedral angle + 15 degrees: the creases round a coarse smooth face turn further than its
   /// chords (a cylinder's rim 80-90 degrees, a six-segment side's 23-38).
@@ -122,6 +131,10 @@ struct ExactQuadricOptions {
   /// and rounded rims are tori. A wedge fits it on its confirm_points stencil (13 unknowns).
   bool cyclides = true;
 };
+
+/// True when face f's normal is within opt.max_normal_angle_deg of Q's at each of its corners, on
+/// the side given (side 0: set to that of the first corner).
+bool face_agrees(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side);
 
 /// True when interior edge e (dihedral angle theta, degrees) lies inside a region of vertices on
 /// one exact, regular quadric or cyclide whose normals agree with the faces' (ExactQuadricOptions), and

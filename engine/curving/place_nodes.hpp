@@ -17,12 +17,15 @@ namespace hocurve {
 
 /// Surface point for barycentric coordinates xi of face f: x = sum xi_j X_j pushed onto each
 /// corner's wedge fit, blended with weights xi (fitting.md section 3).
+/// face_fit (may be null): an exact fit that holds face f (face_exact_fits), used instead.
 Eigen::Vector3d blend_point(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits,
-                            int f, const Eigen::Vector3d& xi);
+                            int f, const Eigen::Vector3d& xi, const LocalFit* face_fit = nullptr);
 
-/// The blend of x's projections onto the corner fits of face f, with weights xi.
+/// The blend of x's projections onto the corner fits of face f, with weights xi (x projected onto
+/// face_fit instead where that is given).
 Eigen::Vector3d blend_projection(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits, int f,
-                                 const Eigen::Vector3d& xi, const Eigen::Vector3d& x);
+                                 const Eigen::Vector3d& xi, const Eigen::Vector3d& x,
+                                 const LocalFit* face_fit = nullptr);
 
 /// Barycentric coordinates, in face f (one of edge e's faces), of the point at parameter t from
 /// E(e,0) to E(e,1). Placing an edge's nodes through one face per edge keeps them conforming.
@@ -32,6 +35,7 @@ struct PlacementResult {
   HighOrderMesh mesh;
   long long curve_edges = 0;   ///< edges placed along feature-curve fits
   long long long_edges = 0;    ///< unreached long edges placed on a PN curve (off feature curves)
+  long long face_exact_fits = 0;  ///< faces whose nodes are on a neighbour's exact surface (face_fits)
   double seconds = 0;
 };
 
@@ -40,10 +44,12 @@ struct PlacementResult {
 /// curves / feat may be null: then every edge uses the surface blend. long_edge (may be null):
 /// its faces (LongEdgeResult::face) and unreached edges go on their PN triangles (long_face_point).
 /// planar (may be null): per face, planar_patch_faces (>= 0: in a flat patch); a feature edge
-/// between two flat patches is straight.
+/// between two flat patches is straight. face_fits (may be null): per face, face_exact_fits; a
+/// face with one has its nodes on it, and an edge takes its first face's (else its second's).
 PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W,
                             const std::vector<LocalFit>& fits, const Features* feat,
                             const CurveFitResult* curves, int p, NodeDistribution d,
-                            const LongEdgeResult* long_edge = nullptr, const std::vector<int>* planar = nullptr);
+                            const LongEdgeResult* long_edge = nullptr, const std::vector<int>* planar = nullptr,
+                            const std::vector<const LocalFit*>* face_fits = nullptr);
 
 }  // namespace hocurve

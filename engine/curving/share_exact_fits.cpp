@@ -1,11 +1,11 @@
 #include "engine/curving/share_exact_fits.hpp"
 
+#include "engine/core/union_find.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <cmath>
-#include <numbers>
 
 namespace hocurve {
 
@@ -24,23 +24,6 @@ LocalFit exact_surface_fit(std::shared_ptr<const ExactQuadric> surface, const Lo
   return F;
 }
 
-bool wedge_faces_on(const Mesh& mesh, const Wedges& W, int w, const ExactQuadric& Q, const ExactQuadricOptions& opt) {
-  const double min_cos = std::cos(opt.max_normal_angle_deg * std::numbers::pi / 180.0);
-  double side = 0;
-  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
-    const int f = W.wedge_faces[i];
-    const Eigen::Vector3d n = face_normal(mesh, f).normalized();
-    for (int j = 0; j < 3; ++j) {
-      const Eigen::Vector3d x = mesh.V.row(mesh.F(f, j)).transpose();
-      if (!Q.contains(x)) return false;
-      const double c = n.dot(Q.gradient(x).normalized());
-      if (side == 0) side = c > 0 ? 1 : -1;
-      if (!(side * c >= min_cos)) return false;
-    }
-  }
-  return side != 0;
-}
-
 namespace {
 
 /// Wedge w has no exact fit (nor a cone model), and its faces turn from its fit's normal by more
@@ -51,6 +34,71 @@ bool may_take(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fi
   return !fits[w].exact && !fits[w].apex && !W.is_cone(W.wedge_vertex[w]) &&
          (W.one_sided(w) || wedge_turn_deg(mesh, W, w, fits[w].n) > opt.min_turn_deg);
 }
+
+/// Face f wants a surface of its own: some corner's fit is not exact, and every such corner may
+/// take one (may_take; no cone model among them). Where a corner's faces turn by less than 2
+/// degrees its height fit is closer than a quadric fitted to rounding (cut sphere h = 0.05: faces
+/// on their neighbours' quadrics took P4 2.2e-10 -> 3.3e-7).
+bool wants_surface(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits, int f,
+                   const ExactQuadricOptions& opt) {
+  bool all_exact = true;
+  for (int j = 0; j < 3; ++j) {
+    const int w = W.corner_wedge(f, j);
+    if (fits[w].apex || (!fits[w].exact && !may_take(mesh, W, fits, w, opt))) return false;
+    all_exact = all_exact && fits[w].exact;
+  }
+  return !all_exact;
+}
+
+}  // namespace
+
+bool face_on(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side) {
+  for (int j = 0; j < 3; ++j)
+    if (!(Q.distance(mesh.V.row(mesh.F(f, j)).transpose()) <= opt.on_factor * Q.tolerance)) return false;
+  return face_agrees(mesh, f, Q, opt, side);
+}
+
+bool wedge_faces_on(const Mesh& mesh, const Wedges& W, int w, const ExactQuadric& Q, const ExactQuadricOptions& opt) {
+  double side = 0;
+  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i)
+    if (!face_on(mesh, W.wedge_faces[i], Q, opt, side)) return false;
+  return side != 0;
+}
+
+std::vector<const LocalFit*> face_exact_fits(const Mesh& mesh, const Topology& T, const Wedges& W,
+                                             const std::vector<LocalFit>& fits, const ExactQuadricOptions& opt) {
+  const int nf = mesh.num_faces();
+  std::vector<const LocalFit*> out(nf, nullptr);
+  if (std::none_of(fits.begin(), fits.end(), [](const LocalFit& F) { return F.exact; })) return out;
+  tbb::parallel_for(tbb::blocked_range<int>(0, nf, 256), [&](const tbb::blocked_range<int>& r) {
+    std::vector<const LocalFit*> found;
+    for (int f = r.begin(); f < r.end(); ++f) {
+      if (!wants_surface(mesh, W, fits, f, opt)) continue;
+      found.clear();
+      for (int j = 0; j < 3; ++j)
+        for (auto [b, e] = T.faces_of(mesh.F(f, j)); b != e; ++b)
+          for (int k = 0; k < 3; ++k) {
+            const LocalFit* F = &fits[W.corner_wedge(*b, k)];
+            if (!F->exact || F->apex || std::find(found.begin(), found.end(), F) != found.end()) continue;
+            double side = 0;
+            if (face_on(mesh, f, *F->surface, opt, side)) found.push_back(F);
+          }
+      if (found.empty()) continue;
+      // Two surfaces through the three corners (a face with every corner on a junction curve)
+      // leave the face's side unknown: then none.
+      const Eigen::Vector3d c = (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2))) / 3;
+      const Eigen::Vector3d x0 = found[0]->project(c);
+      bool agree = true;
+      for (const LocalFit* F : found)
+        agree = agree && (F->project(c) - x0).norm() <=
+                             opt.clear_factor * std::max(F->surface->tolerance, found[0]->surface->tolerance);
+      if (agree) out[f] = found[0];
+    }
+  });
+  return out;
+}
+
+namespace {
 
 /// The exact surface tangent at v: the first exact fit of a corner of a face at v outside wedge
 /// w that passes through v (null if none); its normal there in n.
@@ -76,11 +124,8 @@ const ExactQuadric* tangent_normal(const Mesh& mesh, const Topology& T, const We
 /// (fit_tangent_quadric; valid false where none is determined).
 ExactQuadric tangent_wedge_quadric(const Mesh& mesh, const Topology& T, const Wedges& W,
                                    const std::vector<LocalFit>& fits, int w, const ExactQuadricOptions& opt) {
-  std::vector<int> verts;
-  for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i)
-    for (int j = 0; j < 3; ++j) verts.push_back(mesh.F(W.wedge_faces[i], j));
-  std::sort(verts.begin(), verts.end());
-  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  const std::vector<int> verts =
+      face_corners(mesh, W.wedge_faces.data() + W.wedge_start[w], W.wedge_faces.data() + W.wedge_start[w + 1]);
   Eigen::MatrixXd P(verts.size(), 3), X(verts.size(), 3), N(verts.size(), 3);
   int m = 0;
   std::vector<const ExactQuadric*> tangent;
@@ -111,6 +156,93 @@ ExactQuadric tangent_wedge_quadric(const Mesh& mesh, const Topology& T, const We
   return Q;
 }
 
+/// The surface of one region of free faces (wants_surface, held by no exact fit) joined across
+/// smooth edges (faces sharing an edge in
+/// one wedge at both its ends): the quadric, else the cyclide, through its corners and tangent to
+/// the exact surfaces through them (fit_tangent_quadric, fit_tangent_cyclide); valid false where
+/// none is determined or holds every face. Why a region: a torus fillet two rows across has a
+/// middle row whose fans alone (7 points, 4 rim normals) do not determine a cyclide (13 unknowns).
+ExactQuadric tangent_region_surface(const Mesh& mesh, const Topology& T, const Wedges& W,
+                                    const std::vector<LocalFit>& fits, const std::vector<int>& faces,
+                                    const ExactQuadricOptions& opt) {
+  const std::vector<int> verts = face_corners(mesh, faces.data(), faces.data() + faces.size());
+  Eigen::MatrixXd P(verts.size(), 3), X(verts.size(), 3), N(verts.size(), 3);
+  int m = 0;
+  bool off = false;
+  for (size_t i = 0; i < verts.size(); ++i) {
+    P.row(i) = mesh.V.row(verts[i]);
+    Eigen::Vector3d n;
+    if (tangent_normal(mesh, T, W, fits, -1, verts[i], n))
+      X.row(m) = P.row(i), N.row(m++) = n.transpose();
+    else
+      off = true;  // on no exact surface: the region is not merely its neighbours' faces
+  }
+  ExactQuadric Q;
+  if (m < 2 || !off) return Q;
+  const double tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
+  auto holds = [&](const ExactQuadric& S) {
+    if (!(S.valid && S.max_residual <= tolerance &&
+          S.runner_up >= (S.cyclide() ? opt.unique_cyclide : opt.unique) * tolerance && !plane_pair(S)))
+      return false;
+    double side = 0;
+    return std::all_of(faces.begin(), faces.end(), [&](int f) { return face_on(mesh, f, S, opt, side); });
+  };
+  Q = fit_tangent_quadric(P, X.topRows(m), N.topRows(m));
+  Q.tolerance = tolerance;
+  if (holds(Q)) return Q;
+  if (!opt.cyclides) return ExactQuadric{};
+  Q = fit_tangent_cyclide(P, X.topRows(m), N.topRows(m));
+  Q.tolerance = tolerance;
+  Q.valid = holds(Q);
+  return Q;
+}
+
+/// Wedges that may take one and whose faces all lie on the tangent surface of a region of free
+/// faces (tangent_region_surface) take it. Returns how many took one.
+long long tangent_region_fits(const Mesh& mesh, const Topology& T, const Wedges& W, const ExactQuadricOptions& opt,
+                              std::vector<LocalFit>& fits) {
+  const int nf = mesh.num_faces();
+  const std::vector<const LocalFit*> held = face_exact_fits(mesh, T, W, fits, opt);
+  std::vector<int> parent(nf);
+  for (int f = 0; f < nf; ++f) parent[f] = f;
+  std::vector<char> free(nf);
+  for (int f = 0; f < nf; ++f) free[f] = !held[f] && wants_surface(mesh, W, fits, f, opt);
+  for (int e = 0; e < T.num_edges(); ++e) {
+    if (T.edge_faces[e].size() != 2) continue;
+    const int f = T.edge_faces[e][0], g = T.edge_faces[e][1];
+    if (!free[f] || !free[g]) continue;
+    bool smooth = true;
+    for (int s = 0; s < 2; ++s) {
+      int jf = 0, jg = 0;
+      while (mesh.F(f, jf) != T.E(e, s)) ++jf;
+      while (mesh.F(g, jg) != T.E(e, s)) ++jg;
+      smooth = smooth && W.corner_wedge(f, jf) == W.corner_wedge(g, jg);
+    }
+    if (smooth) parent[find_root(parent, f)] = find_root(parent, g);
+  }
+  std::vector<std::vector<int>> regions(nf);
+  for (int f = 0; f < nf; ++f)
+    if (free[f]) regions[find_root(parent, f)].push_back(f);
+  std::vector<std::shared_ptr<const ExactQuadric>> surface(nf);
+  tbb::parallel_for(tbb::blocked_range<int>(0, nf, 16), [&](const tbb::blocked_range<int>& r) {
+    for (int f = r.begin(); f < r.end(); ++f) {
+      if (regions[f].size() < 2) continue;
+      ExactQuadric Q = tangent_region_surface(mesh, T, W, fits, regions[f], opt);
+      if (Q.valid) surface[f] = std::make_shared<const ExactQuadric>(std::move(Q));
+    }
+  });
+  long long taken = 0;
+  for (int w = 0; w < W.num_wedges(); ++w) {
+    if (!may_take(mesh, W, fits, w, opt) || W.wedge_start[w] == W.wedge_start[w + 1]) continue;
+    const auto& S = surface[find_root(parent, W.wedge_faces[W.wedge_start[w]])];
+    if (S && free[W.wedge_faces[W.wedge_start[w]]] && wedge_faces_on(mesh, W, w, *S, opt)) {
+      fits[w] = exact_surface_fit(S, fits[w], fits[w].requested_degree);
+      ++taken;
+    }
+  }
+  return taken;
+}
+
 }  // namespace
 
 long long tangent_exact_fits(const Mesh& mesh, const Topology& T, const Wedges& W, const ExactQuadricOptions& opt,
@@ -137,6 +269,11 @@ long long tangent_exact_fits(const Mesh& mesh, const Topology& T, const Wedges& 
         ++fitted;
       }
     if (changed) fitted += share_exact_fits(mesh, W, opt, fits);
+    if (!changed) {
+      const long long region = tangent_region_fits(mesh, T, W, opt, fits);
+      if (region > 0) fitted += region + share_exact_fits(mesh, W, opt, fits);
+      changed = region > 0;
+    }
   }
   return fitted;
 }

@@ -17,6 +17,10 @@ namespace hocurve {
 /// the frame's normal is the surface's at o, on the side of fit.n.
 LocalFit exact_surface_fit(std::shared_ptr<const ExactQuadric> surface, const LocalFit& fit, int p);
 
+/// True when face f's corners lie on Q (within opt.on_factor x its tolerance) and its normal is within
+/// opt.max_normal_angle_deg of Q's at each, on the side given (side 0: set to that of the first).
+bool face_on(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side);
+
 /// True when every corner of wedge w's faces lies on Q (within its tolerance) and every face's
 /// normal is within opt.max_normal_angle_deg of Q's at its corners, all on one side.
 bool wedge_faces_on(const Mesh& mesh, const Wedges& W, int w, const ExactQuadric& Q, const ExactQuadricOptions& opt);
@@ -26,10 +30,25 @@ bool wedge_faces_on(const Mesh& mesh, const Wedges& W, int w, const ExactQuadric
 /// the last one's fits only: deterministic). Returns how many took one.
 long long share_exact_fits(const Mesh& mesh, const Wedges& W, const ExactQuadricOptions& opt, std::vector<LocalFit>& fits);
 
+/// Per face whose corners' fits are not all exact, those that are not all of wedges whose faces
+/// turn by more than opt.min_turn_deg (or one-sided: where a wedge tries its own): the exact fit, among those of the wedges of the
+/// faces round its corners, whose surface holds the face (face_on), where all that do agree on its
+/// centroid to clear_factor x their tolerance (else, and for every other face, null). Why: at a
+/// tangent junction a wedge's fan spans two CAD faces and no exact fit of its own, so a face whose
+/// corners all lie on junction curves (a filleted box's corner sphere at h = 0.1, between its
+/// fillets) had its nodes blended from fits across the junction, though a neighbour's exact fit
+/// holds it.
+std::vector<const LocalFit*> face_exact_fits(const Mesh& mesh, const Topology& T, const Wedges& W,
+                                             const std::vector<LocalFit>& fits, const ExactQuadricOptions& opt);
+
 /// Wedges still without an exact fit whose faces' corners lie on a quadric tangent, at those of
 /// them on another exact surface, to that surface (a fillet two triangles across between planes,
 /// a corner sphere between fillets: too few points of their own to determine it) take that
-/// quadric; then share_exact_fits; repeated until none does. Returns how many took one either way.
+/// quadric; then share_exact_fits; repeated until none does. Then each region of faces that no
+/// exact fit holds, joined across smooth edges, fits the quadric or cyclide through its corners
+/// tangent to the exact surfaces at those on them (a torus fillet two rows across, whose middle
+/// row's fans alone do not determine it), which the wedges whose faces all lie on it take; and
+/// the whole again while any wedge takes one. Returns how many took one in every way.
 long long tangent_exact_fits(const Mesh& mesh, const Topology& T, const Wedges& W, const ExactQuadricOptions& opt,
                              std::vector<LocalFit>& fits);
 

@@ -6,6 +6,7 @@
 #include "engine/curving/band_fit.hpp"
 #include "engine/curving/place_nodes.hpp"
 #include "engine/curving/planar_patches.hpp"
+#include "engine/curving/share_exact_fits.hpp"
 #include "engine/curving/stencil.hpp"
 
 #include <chrono>
@@ -126,15 +127,17 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     R.smooth_surface = smooth_surface(R.features, T, planar, long_opt);
     if (R.smooth_surface) long_opt.ratio = 0;
     const LongEdgeResult long_edge = p >= 2 ? long_edges(mesh, T, W, R.fits.fits, long_opt) : LongEdgeResult{};
+    const std::vector<const LocalFit*> face_fits = face_exact_fits(mesh, T, W, R.fits.fits, fit_opt.exact);
     PlacementResult P = place_nodes(mesh, T, W, R.fits.fits, &R.features,
                                     R.curve_fits.fits.empty() ? nullptr : &R.curve_fits, p,
-                                    opt.distribution, p >= 2 ? &long_edge : nullptr, &planar);
+                                    opt.distribution, p >= 2 ? &long_edge : nullptr, &planar, &face_fits);
     R.mesh = std::move(P.mesh);
     R.long_edges = long_edge.edges;
     R.long_edges_placed = P.long_edges;
     R.long_faces = long_edge.faces;
     R.planar = flatten_planar_patches(mesh, T, R.mesh, planar);
     R.curve_edges = P.curve_edges;
+    R.face_exact_fits = P.face_exact_fits;
     R.placement_seconds = P.seconds;
   }
 

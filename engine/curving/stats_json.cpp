@@ -41,6 +41,7 @@ nlohmann::json stats_json(const CurveResult& r) {
   j["curve_fits"] = {{"fitted", r.curve_fits.fitted}, {"downgraded", r.curve_fits.downgraded},
                      {"seconds", r.curve_fits.seconds}};
   j["placement"] = {{"curve_edges", r.curve_edges},
+                    {"face_exact_fits", r.face_exact_fits},
                     {"smooth_surface", r.smooth_surface},
                     {"long_edges", r.long_edges},
                     {"long_edges_placed", r.long_edges_placed},

@@ -153,6 +153,36 @@ TEST_CASE("fit_tangent_quadric: a fillet's three rows and its rims' normals dete
   CHECK(plane_pair(pair));
 }
 
+TEST_CASE("fit_tangent_cyclide: a torus fillet two rows across and its rims' normals determine its torus") {
+  // The rounded rim (radius 0.1) of a cylinder of radius 0.5 under the plane z = 0: a torus with
+  // R = 0.4 about the z axis, centre circle at z = -0.1. Three rows of points round a quarter of
+  // it lie on three circles, which many cyclides share, until the normals of the plane and the
+  // cylinder along the rims are given.
+  const double R = 0.4, r = 0.1;
+  auto torus = [&](double theta, double phi) {
+    return Eigen::Vector3d((R + r * std::cos(phi)) * std::cos(theta), (R + r * std::cos(phi)) * std::sin(theta),
+                           -r + r * std::sin(phi));
+  };
+  std::vector<Eigen::Vector3d> pts, at, normals;
+  for (int i = 0; i < 8; ++i) {
+    const double theta = 0.2 * i;
+    pts.push_back(torus(theta, 0));  // rim on the cylinder
+    at.push_back(pts.back()), normals.emplace_back(std::cos(theta), std::sin(theta), 0);
+    pts.push_back(torus(theta + 0.1, std::numbers::pi / 4));  // middle row
+    pts.push_back(torus(theta, std::numbers::pi / 2));  // rim on the plane
+    at.push_back(pts.back()), normals.emplace_back(0, 0, 1);
+  }
+  CHECK(fit_exact_cyclide(rows(pts)).runner_up < 1e-8);  // 24 points on 3 circles: undetermined
+  CHECK(!(fit_tangent_quadric(rows(pts), rows(at), rows(normals)).max_residual < 1e-6));  // no quadric
+  const ExactQuadric C = fit_tangent_cyclide(rows(pts), rows(at), rows(normals));
+  REQUIRE(C.valid);
+  CHECK(C.cyclide());
+  CHECK(C.max_residual < 1e-12);
+  CHECK(C.runner_up > 1e-4);
+  for (double phi : {0.2, 0.6, 1.1, 1.4})  // between the rows, and round the far side
+    for (double theta : {0.33, 1.0, 4.0}) CHECK(C.distance(torus(theta, phi)) < 1e-10);
+}
+
 TEST_CASE("coordinate_rounding: float32, decimal text, full doubles") {
   Mesh m = icosphere(1);
   CHECK(coordinate_rounding(m) < 1e-15);

@@ -272,10 +272,18 @@ def check_coarse_quadrics(hoc, work):
     fillets and corner spheres tangentially, and at these sizes every stencil reaches across a
     junction: 3.1e-3 and 3.7e-3 (67x and 47x Gmsh's) until quadrics were confirmed by their regions
     (ExactQuadricOptions::region_points), shared with neighbours whose faces lie on them, and fitted
-    tangent to them on fillets two triangles across (share_exact_fits.hpp): 2.1e-5 and 3.4e-5."""
+    tangent to them on fillets two triangles across (share_exact_fits.hpp): 2.1e-5 and 3.4e-5.
+    The filleted box at h = 0.1: its corner spheres' faces have every corner on a junction circle,
+    and their nodes were blended from fits across the junctions (2.4e-3, 63x Gmsh's) until faces
+    took the exact fit of a neighbour that holds them (face_exact_fits): 1.4e-5. The rounded
+    cylinder at h = 0.1: its torus fillets are two rows across, and no fan of the middle row
+    determines a cyclide (1.9e-3, 32x Gmsh's) until each fillet's whole region was fitted tangent to
+    the cylinder and the plane along its rims (fit_tangent_cyclide): 4.4e-5."""
     gmsh = shapes.gmsh_init()
     for name in ("tee", "drilledball", "frustum", "ellipsoid", "crosshole", "halftorus", "capsule", "filletbox"):
         check_cad_p4(gmsh, hoc, work, name, 0, 40, 3)
+    check_cad_p4(gmsh, hoc, work, "filletbox", 0.1, 100, 3)
+    check_cad_p4(gmsh, hoc, work, "roundcyl", 0.1, 100, 3)
 
 
 def main(argv):
