@@ -101,7 +101,7 @@ std::vector<const LocalFit*> face_exact_fits(const Mesh& mesh, const Topology& T
 namespace {
 
 /// The exact surface tangent at v: the first exact fit of a corner of a face at v outside wedge
-/// w that passes through v (null if none); its normal there in n.
+/// w (-1: any) that passes through v (null if none); its normal there in n.
 const ExactQuadric* tangent_normal(const Mesh& mesh, const Topology& T, const Wedges& W,
                                    const std::vector<LocalFit>& fits, int w, int v, Eigen::Vector3d& n) {
   const Eigen::Vector3d x = mesh.V.row(v).transpose();
