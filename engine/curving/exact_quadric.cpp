@@ -246,6 +246,8 @@ bool plane_pair(const ExactQuadric& Q) {
   return ev[1] <= 1e-6 * ev[3];
 }
 
+bool plane_sphere(const ExactQuadric& Q) { return Q.cyclide() && std::abs(Q.c[13]) <= 1e-10 * Q.c.norm(); }
+
 bool face_agrees(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side) {
   const double min_cos = std::cos(opt.max_normal_angle_deg * std::numbers::pi / 180.0);
   const Eigen::Vector3d n = face_normal(mesh, f).normalized();
@@ -276,7 +278,7 @@ ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::in
   ExactQuadric Q = fit_exact_quadric(P, planes);
   if (!on(Q) && opt.cyclides) Q = fit_exact_cyclide(P);
   Q.tolerance = tolerance;
-  Q.valid = on(Q) && !plane_pair(Q);
+  Q.valid = on(Q) && !plane_pair(Q) && !plane_sphere(Q);
   double largest = 0;
   for (int v : verts) largest = std::max(largest, Q.gradient(mesh.V.row(v).transpose()).norm());
   for (int v : ends)

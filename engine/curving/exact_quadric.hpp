@@ -70,6 +70,12 @@ ExactQuadric fit_tangent_cyclide(const Eigen::MatrixXd& P, const Eigen::MatrixXd
 /// no CAD face is one.
 bool plane_pair(const ExactQuadric& Q);
 
+/// Q is a cyclide without its |y|^4 term (to rounding): a cubic surface, such as a plane times a
+/// sphere. The points of a plane cap and of a torus fillet one triangle across beside it lie on one
+/// (the cap's plane, and the sphere through the fillet's far rim and one more point), which is no
+/// CAD face: a rounded cylinder at Gmsh's sizes had wedges on such, 57 degrees off the torus.
+bool plane_sphere(const ExactQuadric& Q);
+
 /// Relative rounding of the mesh's coordinates: 2^-24 where all are float32 (binary STL), else
 /// half a unit in the last of the fewest decimal digits that give back sampled coordinates
 /// (text formats), at least double epsilon.

@@ -182,7 +182,8 @@ ExactQuadric tangent_region_surface(const Mesh& mesh, const Topology& T, const W
   const double tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
   auto holds = [&](const ExactQuadric& S) {
     if (!(S.valid && S.max_residual <= tolerance &&
-          S.runner_up >= (S.cyclide() ? opt.unique_cyclide : opt.unique) * tolerance && !plane_pair(S)))
+          S.runner_up >= (S.cyclide() ? opt.unique_cyclide : opt.unique) * tolerance && !plane_pair(S) &&
+          !plane_sphere(S)))
       return false;
     double side = 0;
     return std::all_of(faces.begin(), faces.end(), [&](int f) { return face_on(mesh, f, S, opt, side); });

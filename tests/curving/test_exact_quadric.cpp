@@ -290,8 +290,25 @@ TEST_CASE("fit_exact_cyclide: exact on a torus, undetermined on a sphere") {
   for (const Eigen::Vector3d& x : torus) CHECK((C.project(x + 0.01 * C.gradient(x).normalized()) - x).norm() < 1e-3);
   const Eigen::Vector3d off = torus[3] + 0.05 * C.gradient(torus[3]).normalized();
   CHECK(C.distance(off) == doctest::Approx(0.05).epsilon(0.01));
+  CHECK(!plane_sphere(C));
   // A sphere times any sphere is a cyclide: the sphere's points determine none.
   CHECK(fit_exact_cyclide(rows(sphere)).runner_up < 1e-10);
+}
+
+TEST_CASE("plane_sphere: a plane cap's points and a fillet's far rim lie on a plane times a sphere") {
+  // A cylinder (radius 0.5) rounded (radius 0.12) down to its cap z = 0, its fillet one triangle
+  // across: a stencil reaching over the cap's rim holds the cap's points, the fillet's upper rim
+  // (a circle at z = 0.12) and one vertex inside the fillet. The cap's plane times the sphere
+  // through that circle and vertex holds them all: an exact, determined cyclide, and no CAD face.
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = 0; i < 12; ++i) pts.emplace_back(0.3 * std::cos(0.5 * i), 0.3 * std::sin(0.5 * i) * (0.5 + 0.04 * i), 0);
+  for (int i = 0; i < 8; ++i) pts.emplace_back(0.5 * std::cos(0.3 * i), 0.5 * std::sin(0.3 * i), 0.12);
+  const double phi = 0.7;  // inside the fillet: on the torus R = 0.38, r = 0.12 about the z axis
+  pts.emplace_back(0.38 + 0.12 * std::cos(phi), 0.1, 0.12 - 0.12 * std::sin(phi));
+  const ExactQuadric C = fit_exact_cyclide(rows(pts));
+  CHECK(C.cyclide());
+  CHECK(C.max_residual < 1e-12);
+  CHECK(plane_sphere(C));
 }
 
 TEST_CASE("a coarse torus curves onto the torus") {
