@@ -74,6 +74,8 @@ bool plane_pair(const ExactQuadric& Q);
 /// sphere. The points of a plane cap and of a torus fillet one triangle across beside it lie on one
 /// (the cap's plane, and the sphere through the fillet's far rim and one more point), which is no
 /// CAD face: a rounded cylinder at Gmsh's sizes had wedges on such, 57 degrees off the torus.
+/// "To rounding": |c13| <= 1e-10 |c| (those were 4e-14 to 3e-13; a torus has c13 ~ 1 at its own
+/// scale, and ~ (stencil / R)^3 on a stencil much smaller than its radius R).
 bool plane_sphere(const ExactQuadric& Q);
 
 /// Relative rounding of the mesh's coordinates: 2^-24 where all are float32 (binary STL), else

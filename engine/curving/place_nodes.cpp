@@ -163,8 +163,9 @@ struct CurveSideBlend {
 
 /// The curve sides of face f whose shift (at a quarter, half and three quarters of the side) stays
 /// within max_shift x the side's length, and those whose two sides have exact fits (exact_sides): the
-/// limit keeps scans' noisy curve fits out of the faces, while the crossing of two exact surfaces is
-/// the curve itself (two cylinders crossed at h = 0.1: shifts of 7.6% of the side, P4 8.6e-5 -> 2.3e-6).
+/// limit keeps scans' noisy curve fits out of the faces, while there the curve is the crossing of two
+/// exact surfaces, or a CAD curve's fit (two cylinders crossed at h = 0.1: shifts of 7.6% of the side,
+/// P4 8.6e-5 -> 2.3e-6).
 std::array<bool, 3> curve_sides_within(const Mesh& mesh, const Topology& T, const Wedges& W,
                                        const std::vector<LocalFit>& fits, const CurveFitResult& curves,
                                        const EdgeContext& ctx, const std::vector<char>& on_curve, int f,
