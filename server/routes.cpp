@@ -400,7 +400,9 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
 }
 
 Job require_job(App& app, const Request& req) {
-  auto job = app.store.get(req.matches[1].str());
+  // A finished job is saved before it is reported (wait_terminal saves what its updater has not yet):
+  // what a client is told survives a crash, and the job's folder holds no half-written state.json.
+  auto job = app.store.wait_terminal(req.matches[1].str(), 0);
   if (!job || job->sync) throw ApiError(404, "not-found", "no job with id '" + req.matches[1].str() + "'");
   return *job;
 }
