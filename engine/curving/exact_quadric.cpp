@@ -248,6 +248,13 @@ bool plane_pair(const ExactQuadric& Q) {
 
 bool plane_sphere(const ExactQuadric& Q) { return Q.cyclide() && std::abs(Q.c[13]) <= 1e-10 * Q.c.norm(); }
 
+bool reducible(const ExactQuadric& Q) { return plane_pair(Q) || plane_sphere(Q); }
+
+bool determined(const ExactQuadric& Q, double tolerance, const ExactQuadricOptions& opt) {
+  return Q.valid && Q.max_residual <= tolerance &&
+         Q.runner_up >= (Q.cyclide() ? opt.unique_cyclide : opt.unique) * tolerance;
+}
+
 bool face_agrees(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side) {
   const double min_cos = std::cos(opt.max_normal_angle_deg * std::numbers::pi / 180.0);
   const Eigen::Vector3d n = face_normal(mesh, f).normalized();
@@ -271,14 +278,10 @@ ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::in
   Eigen::MatrixXd P(verts.size(), 3);
   for (size_t i = 0; i < verts.size(); ++i) P.row(i) = mesh.V.row(verts[i]);
   const double tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
-  auto on = [&](const ExactQuadric& Q) {
-    return Q.valid && Q.max_residual <= tolerance &&
-           Q.runner_up >= (Q.cyclide() ? opt.unique_cyclide : opt.unique) * tolerance;
-  };
   ExactQuadric Q = fit_exact_quadric(P, planes);
-  if (!on(Q) && opt.cyclides) Q = fit_exact_cyclide(P);
+  if (!determined(Q, tolerance, opt) && opt.cyclides) Q = fit_exact_cyclide(P);
   Q.tolerance = tolerance;
-  Q.valid = on(Q) && !plane_pair(Q) && !plane_sphere(Q);
+  Q.valid = determined(Q, tolerance, opt) && !reducible(Q);
   double largest = 0;
   for (int v : verts) largest = std::max(largest, Q.gradient(mesh.V.row(v).transpose()).norm());
   for (int v : ends)

@@ -78,6 +78,9 @@ bool plane_pair(const ExactQuadric& Q);
 /// scale, and ~ (stencil / R)^3 on a stencil much smaller than its radius R).
 bool plane_sphere(const ExactQuadric& Q);
 
+/// plane_pair or plane_sphere: a product of simpler surfaces, which no single CAD face is.
+bool reducible(const ExactQuadric& Q);
+
 /// Relative rounding of the mesh's coordinates: 2^-24 where all are float32 (binary STL), else
 /// half a unit in the last of the fewest decimal digits that give back sampled coordinates
 /// (text formats), at least double epsilon.
@@ -139,6 +142,11 @@ struct ExactQuadricOptions {
   /// and rounded rims are tori. A wedge fits it on its confirm_points stencil (13 unknowns).
   bool cyclides = true;
 };
+
+/// Q is the surface of the points it was fitted to: valid, within `tolerance` of every one, and
+/// determined by them (the next-best fit misses by opt.unique x tolerance, opt.unique_cyclide for
+/// cyclides, whose extra terms fit more point sets).
+bool determined(const ExactQuadric& Q, double tolerance, const ExactQuadricOptions& opt);
 
 /// True when face f's normal is within opt.max_normal_angle_deg of Q's at each of its corners, on
 /// the side given (side 0: set to that of the first corner).

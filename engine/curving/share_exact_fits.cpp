@@ -151,8 +151,7 @@ ExactQuadric tangent_wedge_quadric(const Mesh& mesh, const Topology& T, const We
   if (m < 2 || !off) return Q;
   Q = fit_tangent_quadric(P, X.topRows(m), N.topRows(m));
   Q.tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
-  Q.valid = Q.valid && Q.max_residual <= Q.tolerance && Q.runner_up >= opt.unique * Q.tolerance && !plane_pair(Q) &&
-            wedge_faces_on(mesh, W, w, Q, opt);
+  Q.valid = determined(Q, Q.tolerance, opt) && !reducible(Q) && wedge_faces_on(mesh, W, w, Q, opt);
   return Q;
 }
 
@@ -181,10 +180,7 @@ ExactQuadric tangent_region_surface(const Mesh& mesh, const Topology& T, const W
   if (m < 2 || !off) return Q;
   const double tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
   auto holds = [&](const ExactQuadric& S) {
-    if (!(S.valid && S.max_residual <= tolerance &&
-          S.runner_up >= (S.cyclide() ? opt.unique_cyclide : opt.unique) * tolerance && !plane_pair(S) &&
-          !plane_sphere(S)))
-      return false;
+    if (!determined(S, tolerance, opt) || reducible(S)) return false;
     double side = 0;
     return std::all_of(faces.begin(), faces.end(), [&](int f) { return face_on(mesh, f, S, opt, side); });
   };

@@ -176,7 +176,7 @@ TEST_CASE("collapses that would move dense points far wait: thin parts survive")
   CHECK(check_closed_manifold(deferred.coarse) == check_closed_manifold(plain.coarse));
 }
 
-TEST_CASE("max_deviation keeps the dense vertices near the coarse surface; the shortfall is reported") {
+TEST_CASE("max_deviation keeps the dense vertices near the coarse surface, the shortfall is reported") {
   // skull_lowres at 2%: without a limit the last collapses leave dense vertices 5% of the diagonal
   // from the straight coarse surface (thin parts cut off); with max_deviation none is further than
   // the limit and the decimation stops short of the target, saying why.

@@ -147,7 +147,7 @@ TEST_CASE("sphere with its equator as an entity border: geodesic distance = |lat
   }
 }
 
-TEST_CASE("no features: +infinity everywhere; component without features stays infinite") {
+TEST_CASE("no features: +infinity everywhere, component without features stays infinite") {
   const Mesh m = icosphere(2);
   const Topology T = build_topology(m.F, m.num_vertices());
   const Features F = detect_features(m, T);

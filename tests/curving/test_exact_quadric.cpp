@@ -196,7 +196,7 @@ TEST_CASE("coordinate_rounding: float32, decimal text, full doubles") {
   CHECK(r <= 5e-5);
 }
 
-TEST_CASE("turning edges on one exact quadric are chords; creases stay sharp") {
+TEST_CASE("turning edges on one exact quadric are chords, creases stay sharp") {
   // A 6-sided cylinder, each ring turned by half a step: its side edges turn by 23-38 degrees
   // (sharp, or kinks), but every vertex is on the cylinder. The rims (79 degrees) are creases.
   for (bool centre : {true, false}) {

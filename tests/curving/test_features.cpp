@@ -127,7 +127,7 @@ TEST_CASE("kink test: long thin faces across a smooth 30-degree edge leave the k
   CHECK(F.kink_edges == 0);
 }
 
-TEST_CASE("cone points: a cone's apex, sharp or blunt; not a pole fan, not a coarse or jittered smooth surface") {
+TEST_CASE("cone points: a cone's apex, sharp or blunt, not a pole fan, not a coarse or jittered smooth surface") {
   for (double height : {2.0, 0.5, 0.2}) {  // half-angles 27, 63 and 79 degrees
     const Mesh m = cone_mesh(20, 64, 1.0, height);
     const Features F = detect(m);
@@ -145,7 +145,7 @@ TEST_CASE("cone points: a cone's apex, sharp or blunt; not a pole fan, not a coa
   CHECK(detect_features(cone, build_topology(cone.F, cone.num_vertices()), off).cone_points == 0);
 }
 
-TEST_CASE("caps on a smooth surface make no sharp edge; caps of a flat fan keep their rim") {
+TEST_CASE("caps on a smooth surface make no sharp edge, caps of a flat fan keep their rim") {
   // An icosphere where every 7th face becomes a cap (a, b, m) and two thin faces: m on the sphere
   // near the middle of ab, 3% of the way toward c. The cap's corners are nearly collinear, so its
   // normal leans by the arc's sagitta over its height (as iso-surface meshes' caps do).
@@ -318,7 +318,7 @@ int sharp_on_row(const Mesh& m, const Features& F, int k, int j) {
 
 }  // namespace
 
-TEST_CASE("coarse fillets: a two-segment fillet's middle row is smooth; chamfers and prisms stay sharp") {
+TEST_CASE("coarse fillets: a two-segment fillet's middle row is smooth, chamfers and prisms stay sharp") {
   // Profile: a flat run at z = 0, a turn of `turn` degrees made by `segments` equal chords of
   // length h (turns of turn / segments between chords, half of it where they meet the flats), a
   // flat run up the other side. h = 1; the extrusion's steps are 1 too.
@@ -470,7 +470,7 @@ TEST_CASE("non-manifold edge: three fins on one edge") {
   check_curves(m, F);
 }
 
-TEST_CASE("orientation: reversing every face changes nothing; deterministic") {
+TEST_CASE("orientation: reversing every face changes nothing, deterministic") {
   Mesh m = cube(3);
   const Features a = detect(m);
   Mesh r = m;

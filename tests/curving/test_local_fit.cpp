@@ -110,7 +110,7 @@ TEST_CASE("too few points or points on lines lower the degree") {
   CHECK(std::abs(B.height(0.3, 0.5)) < 1e-12);
 }
 
-TEST_CASE("wedges split at feature edges; stencils never cross them") {
+TEST_CASE("wedges split at feature edges, stencils never cross them") {
   const Mesh m = capped_cylinder(24, 6, 0.5, 1.0);
   const Topology T = build_topology(m.F, m.num_vertices());
   const Features feat = detect_features(m, T);
@@ -189,7 +189,7 @@ TEST_CASE("Lobatto node distribution: nodes on the surface, corners kept") {
   CHECK(r.validity.invalid_after == 0);
 }
 
-TEST_CASE("reference surfaces: coords and point are inverse; fits reproduce a torus exactly") {
+TEST_CASE("reference surfaces: coords and point are inverse, fits reproduce a torus exactly") {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> U(-1, 1);
   const double ks[][2] = {{0, 0}, {0, 2.0}, {0, -2.0}, {1.5, 1.5}, {-1.5, -1.5}, {0.7, 2.5}, {-1.1, 2.5}, {1.1, -2.5}};
@@ -270,7 +270,7 @@ TEST_CASE("reference surfaces: coords and point are inverse; fits reproduce a to
   }
 }
 
-TEST_CASE("quadric reference: coords and point are inverse; fits reproduce an ellipsoid exactly") {
+TEST_CASE("quadric reference: coords and point are inverse, fits reproduce an ellipsoid exactly") {
   // Points of the ellipsoid (1, 0.7, 0.5) around a point off its symmetry planes, in a frame
   // whose normal is tilted from the surface's: the quadric through o is the ellipsoid, so the
   // fit over it reproduces the surface to round-off, where the osculating torus cannot.

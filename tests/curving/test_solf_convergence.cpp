@@ -281,7 +281,7 @@ TEST_CASE("support points do not cap the accuracy (lifted, forced into every fit
   CHECK(capped.back().err[0] > 10 * lifted.back().err[1]);
 }
 
-TEST_CASE("output is identical for 1 and 2 threads; stats JSON carries every stage") {
+TEST_CASE("output is identical for 1 and 2 threads, stats JSON carries every stage") {
   Mesh m = torus_grid(40, 16, 1.0, 0.4);
   jitter_on_surface(m, 0.25, 3, [](const Eigen::Vector3d& x) { return torus_closest(x, 1.0, 0.4); });
   CurveOptions o;
@@ -326,7 +326,7 @@ TEST_CASE("output is identical for 1 and 2 threads; stats JSON carries every sta
   MESSAGE(j.dump());
 }
 
-TEST_CASE("orders outside 1..6 are refused; order 1 and Linear keep the input") {
+TEST_CASE("orders outside 1..6 are refused, order 1 and Linear keep the input") {
   Mesh m = icosphere(1);
   CurveOptions o;
   o.order = 0;

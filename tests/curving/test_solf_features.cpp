@@ -947,7 +947,7 @@ TEST_CASE("tangent junctions: a border four edges long is found from its two mid
   check_result(stl, R);
 }
 
-TEST_CASE("long edges of CAD exports take their PN triangle; gradual meshes have none") {
+TEST_CASE("long edges of CAD exports take their PN triangle, gradual meshes have none") {
   // t13_data: 48 mm extrusion-wall strips meet 2.6 mm fillet strips at 15 degrees; the corner fits
   // follow the fillets and bulged the walls by 4.4 mm. hinge_netgen: the same with Netgen's fans.
   for (const char* name : {"t13_data.stl", "hinge_netgen.stl"}) {

@@ -15,7 +15,7 @@
 
 using namespace hocurve;
 
-TEST_CASE("counter_uniform: in [0,1), spread, independent of call order") {
+TEST_CASE("counter_uniform: in 0 <= u < 1, spread, independent of call order") {
   double sum = 0, sum2 = 0;
   const int n = 200000;
   std::set<double> seen;

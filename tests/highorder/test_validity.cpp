@@ -326,7 +326,7 @@ TEST_CASE("bounds against dense sampling, 200 random elements per order") {
   }
 }
 
-TEST_CASE("P6: negative Bezier minimum, valid after subdivision; bounds converge") {
+TEST_CASE("P6: negative Bezier minimum, valid after subdivision, bounds converge") {
   std::mt19937 rng(99);
   const JacobianBasis B(6);
   const Eigen::MatrixXd uv = dense_uv(60);
@@ -483,7 +483,7 @@ TEST_CASE("repair with zero shrink steps goes straight exactly like make_straigh
   }
 }
 
-TEST_CASE("check_validity is deterministic and counts degenerate inputs; speed at P4") {
+TEST_CASE("check_validity is deterministic and counts degenerate inputs, speed at P4") {
   const HighOrderMesh hm = curved_sphere(5, 4, NodeDistribution::Equispaced);  // 20480 faces
   const auto t0 = std::chrono::steady_clock::now();
   const std::clock_t c0 = std::clock();

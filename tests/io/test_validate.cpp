@@ -46,7 +46,7 @@ TEST_CASE("clean closed mesh: nothing to report") {
   CHECK(m.V == before.V);
 }
 
-TEST_CASE("inconsistent orientation: minority flipped; inside-out closed mesh turned outward") {
+TEST_CASE("inconsistent orientation: minority flipped, inside-out closed mesh turned outward") {
   Mesh m = iotest::octahedron();
   const double vol = signed_volume(m);
   REQUIRE(vol > 0);
@@ -96,7 +96,7 @@ TEST_CASE("Moebius strip is reported non-orientable and left as read") {
   CHECK(m.F == before.F);
 }
 
-TEST_CASE("degenerate, duplicate and zero-area faces; unused vertices") {
+TEST_CASE("degenerate, duplicate and zero-area faces, unused vertices") {
   Mesh m = iotest::octahedron();
   m.V.conservativeResize(8, 3);
   m.V.row(6) << 9, 9, 9;                       // unused
@@ -149,7 +149,7 @@ TEST_CASE("a zero-area cap closing a T-junction is flipped into its neighbour, s
   CHECK(keep.F(1, 2) == 4);
 }
 
-TEST_CASE("zero-area flaps and lone collinear triangles are removed; all-collinear input is refused") {
+TEST_CASE("zero-area flaps and lone collinear triangles are removed, all-collinear input is refused") {
   Mesh m = iotest::octahedron();
   const int nv = m.num_vertices(), nf = m.num_faces();
   m.V.conservativeResize(nv + 4, 3);

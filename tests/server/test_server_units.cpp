@@ -277,7 +277,7 @@ TEST_CASE("job store: atomic state, reload, pagination, idempotency keys") {
   fs::remove_all(dir);
 }
 
-TEST_CASE("byte ranges: one range served, clipped; past the end unsatisfiable; the rest ignored") {
+TEST_CASE("byte ranges: one range served, clipped, past the end unsatisfiable, the rest ignored") {
   auto part = [](const std::string& h, std::uint64_t size) {
     ByteRange r = parse_byte_range(h, size);
     return r.kind == ByteRange::kPart ? content_range(r, size) : r.kind == ByteRange::kWhole ? "whole" : "416";
