@@ -705,6 +705,10 @@ void install_routes(httplib::Server& svr, App& app) {
             }
             bool more = false;
             auto jobs = app.store.list(page_size, after, status, more);
+            // As for one job (require_job): a finished job is saved before it is listed as finished.
+            for (auto& j : jobs)
+              if (j.terminal())
+                if (auto saved = app.store.wait_terminal(j.id, 0)) j = *saved;
             nlohmann::json out = {{"jobs", nlohmann::json::array()}, {"next_page_token", ""}};
             for (auto& j : jobs) out["jobs"].push_back(job_view(j));
             if (more && !jobs.empty()) out["next_page_token"] = status + "~" + jobs.back().id;
