@@ -18,6 +18,7 @@ Usage: test_coarsen_cli.py BUILD_DIR
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -307,7 +308,11 @@ def main(argv):
           "Moebius band: exit %d, says why (%s), no output" % (r.returncode, r.stderr.strip()[:80]))
 
     print("%d failure(s)" % len(failures))
-    return 1 if failures else 0
+    if failures:
+        print("files kept in %s" % work)
+        return 1
+    shutil.rmtree(work, ignore_errors=True)
+    return 0
 
 
 if __name__ == "__main__":

@@ -2,8 +2,10 @@
 
 Used by tests/python/test_server_*.py (imported via sys.path). Loopback only, bounded waits.
 """
+import atexit
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -67,6 +69,8 @@ class Daemon:
     def __init__(self, build_dir, data_dir=None, worker=None, args=(), env=None):
         self.exe = os.path.join(build_dir, "hocurved")
         self.tmp = tempfile.mkdtemp(prefix="hocurved-test-")
+        # Removed when the test program exits (tests restart a daemon on the same folder).
+        atexit.register(shutil.rmtree, self.tmp, True)
         self.data_dir = data_dir or os.path.join(self.tmp, "data")
         self.worker = worker
         self.args = list(args)
