@@ -33,6 +33,9 @@ from bench import shapes  # noqa: E402
 SHAPES = ["cone", "filletbox", "crosshole", "cutsphere", "halftorus", "capsule", "roundcyl"]
 # Since session 29, mostly for Gmsh's own sizes (--sizes default): coarse meshes of CAD quadrics.
 COARSE = ["tee", "drilledball", "frustum", "ellipsoid"]
+# Session 35: free-form B-spline surfaces (no exact quadric or cyclide holds them): a loft through
+# three unlike sections, and a torus stretched unevenly.
+FREEFORM = ["loft", "squashedtorus"]
 # Open surfaces (session 25): the solid's planar faces removed, their rims left as boundary curves.
 OPEN = ["hemisphere", "pipe", "quartertorus"]
 
@@ -72,6 +75,14 @@ def build(gmsh, name):
         occ.addCone(0, 0, 0, 0, 0, 1, 0.5, 0.2)
     elif name == "ellipsoid":  # a sphere scaled (a B-spline surface in OCC)
         occ.dilate([(3, occ.addSphere(0, 0, 0, 1))], 0, 0, 0, 1, 0.7, 0.5)
+    elif name == "loft":  # B-spline side through an ellipse, a circle and a tilted ellipse, flat caps
+        wires = []
+        for z, rx, ry, dx in ((0, 0.6, 0.35, 0), (0.6, 0.3, 0.3, 0.15), (1.2, 0.5, 0.25, -0.1)):
+            c = occ.addEllipse(dx, 0, z, rx, ry) if rx != ry else occ.addCircle(dx, 0, z, rx)
+            wires.append(occ.addCurveLoop([c]))
+        occ.addThruSections(wires, makeSolid=True, makeRuled=False)
+    elif name == "squashedtorus":  # a torus scaled unevenly (a B-spline surface in OCC)
+        occ.dilate([(3, occ.addTorus(0, 0, 0, 1, 0.4))], 0, 0, 0, 1, 0.6, 0.8)
     elif name == "hemisphere":  # boundary: the equator, where the surface is vertical
         sphere = occ.addSphere(0, 0, 0, 1)
         occ.cut([(3, sphere)], [(3, occ.addBox(-2, -2, -2, 4, 4, 2))])

@@ -304,14 +304,15 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
         Eigen::Vector3d axis, xa, xb;
         turn_from(a, v, angle, axis, &b);
         corner = angle > opt.corner_angle_deg;
-        // A coarse circle turns alike, about the same axis, at v and at both its neighbours (a
-        // zigzag turns about opposite axes).
+        // A coarse smooth curve turns about the same axis at v and at both its neighbours (a
+        // zigzag turns about opposite axes), at v not a spike above both (its sharper neighbour
+        // within 2x) nor sharply past a straighter side (the other within 3x).
         if (corner && angle <= opt.coarse_circle_max_deg) {
           int a2 = -1;
-          const bool circle = turn_from(v, a, an, xa, &a2) && turn_from(v, b, bn, xb) && an * 1.5 >= angle &&
-                              an <= 1.5 * angle && bn * 1.5 >= angle && bn <= 1.5 * angle &&
+          const bool smooth = turn_from(v, a, an, xa, &a2) && turn_from(v, b, bn, xb) &&
+                              2 * std::max(an, bn) >= angle && 3 * std::min(an, bn) >= angle &&
                               (-xa).dot(axis) >= 0.9 && xb.dot(axis) >= 0.9;
-          corner = !circle;
+          corner = !smooth;
         }
       }
       if (corner) R.vertex_corner[v] = 1, ++R.corners;

@@ -47,12 +47,17 @@ struct FeatureOptions {
   /// fillet was fitted as a ruled band, off by the chord's sagitta. 0 turns it off.
   double fillet_max_deg = 65.0;
   double corner_angle_deg = 35.0;  ///< a vertex on a single curve is a corner when the curve turns more than this
-  /// ... unless it turns by at most coarse_circle_max_deg and both its curve neighbours turn alike (within a
-  /// factor 1.5, about the same axis): a circle of 9-10 segments, as a coarse mesh has round a hole or a rim
-  /// (a polygon's corners usually meet sharp side edges too, making them junctions anyway; an octagon, 45
-  /// degrees, stays a polygon). Measured: the CAD screw at d/40, its bottom rim 10 segments under a
-  /// chamfer one triangle wide, P4 4.0e-2 -> 2.1e-2 (P2 9.3e-2 -> 5.0e-2, P6 3.2e-2 -> 1.7e-2).
-  double coarse_circle_max_deg = 40.0;
+  /// ... unless it turns by at most coarse_circle_max_deg about the same axis as both its curve
+  /// neighbours, the sharper of them turning at least half and the straighter at least a third as
+  /// much: a coarse circle (6 segments or more) or ellipse, as a coarse mesh has round a hole or a
+  /// rim (a polygon's corners meet sharp side edges too, making them junctions anyway; a straight
+  /// line meeting a circle is a corner). Measured: the CAD screw at d/40, its bottom rim 10
+  /// segments under a chamfer one triangle wide, P4 4.0e-2 -> 2.1e-2 (P2 9.3e-2 -> 5.0e-2, P6
+  /// 3.2e-2 -> 1.7e-2). A loft's elliptic rim (radius of curvature 0.125 at its tips, h = 0.1)
+  /// turns 43 degrees at the tip's two vertices and 25 next to them: with the rule before
+  /// (neighbours alike within 1.5x, at most 40 degrees) its tip edge stayed straight, P4 1.39e-3
+  /// -> 2.1e-4.
+  double coarse_circle_max_deg = 61.0;
   bool entity_borders = true;      ///< edges between faces of different input entities are features
   /// With entity_borders and several input entities (CAD faces, which are smooth inside), edges
   /// inside one entity are sharp only above angle_deg: the kink test is not run on them. Its

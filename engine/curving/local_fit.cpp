@@ -1098,6 +1098,7 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
   if (opt.exact_quadrics && p > 1) {
     R.shared_exact_fits = share_exact_fits(mesh, W, opt.exact, R.fits);
     R.shared_exact_fits += tangent_exact_fits(mesh, T, W, opt.exact, R.fits);
+    R.refitted_surfaces = refit_shared_surfaces(mesh, W, opt.exact, R.fits);
   }
   R.degree_histogram.assign(p + 1, 0);
   double pts = 0;

@@ -366,6 +366,7 @@ struct FitResult {
   long long agreeing_fits = 0;            ///< one-sided wedges given a quadric or torus fit by one_sided_quadric_agreement
   long long exact_fits = 0;               ///< wedges on an exact quadric or plane (FitOptions::exact_quadrics)
   long long shared_exact_fits = 0;        ///< ... of which taken from a neighbour (share_exact_fits)
+  long long refitted_surfaces = 0;        ///< shared exact surfaces refitted to all their wedges' corners
   long long apex_fits = 0;                ///< wedges on a cone point's model: its own and its neighbours' (share_apex_fits)
   double mean_points = 0;
   double seconds = 0;

@@ -72,10 +72,10 @@ int feature_valence(const Topology& T, const Features& feat, int v) {
   return n;
 }
 
-/// Where the surface fits of interior edge e's two sides cross the plane normal to its chord at
-/// t: alternating projections from `start` (start itself where they do not converge).
+/// Where the surface fits of interior edge e's two sides cross the plane normal to its chord
+/// through `anchor`: alternating projections from `start` (start itself where they do not converge).
 Eigen::Vector3d surface_crossing(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
-                                 int e, double t, const Eigen::Vector3d& start) {
+                                 int e, double t, const Eigen::Vector3d& start, const Eigen::Vector3d& anchor) {
   const int f1 = T.edge_faces[e][0], f2 = T.edge_faces[e][1];
   const Eigen::Vector3d xi1 = edge_barycentric(mesh, T, e, f1, t), xi2 = edge_barycentric(mesh, T, e, f2, t);
   const Eigen::Vector3d chord = mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0));
@@ -84,12 +84,22 @@ Eigen::Vector3d surface_crossing(const Mesh& mesh, const Topology& T, const Wedg
   Eigen::Vector3d x = start;
   for (int it = 0; it < 100; ++it) {
     Eigen::Vector3d y = blend_projection(mesh, W, fits, f2, xi2, blend_projection(mesh, W, fits, f1, xi1, x));
-    y -= (y - start).dot(u) * u;
+    y -= (y - anchor).dot(u) * u;
     const double step = (y - x).norm();
     x = y;
     if (step <= 1e-13 * len) return x;
   }
   return start;
+}
+
+/// Where along its chord (0..1) a circular arc's point closest to the chord's point at t lies
+/// (the arc's centre, that point and it in line), the arc rising `rise` x half the chord above
+/// its middle: where a projection onto a cylinder or sphere through the arc puts it.
+double arc_chord_fraction(double rise, double t) {
+  if (!(rise > 1e-12)) return t;
+  const double radius = (1 + rise * rise) / (2 * rise), x = 2 * t - 1;  // in half chords
+  const double d = std::hypot(x, radius - rise);
+  return d > 0 ? 0.5 * (1 + radius * x / d) : t;
 }
 
 /// True when both ends of edge e have exact quadric fits on both its sides (LocalFit::exact): two
@@ -110,6 +120,13 @@ bool exact_sides(const Mesh& mesh, const Topology& T, const Wedges& W, const std
 /// 2.1e-5 -> 6.5e-7; Gmsh's CAD P4 3.7e-6). And a curve that is this one edge between two corners
 /// has fits of its two ends only: a line, whatever the surfaces do (the screw's slot floor meets
 /// its conical head in an arc one edge long, left a chord 2.1e-2 off at d/40).
+/// Between exact sides the plane goes through the point closest to the chord's point at t of the
+/// arc through the edge's ends and the crossing at its middle, not through the curve fit's point:
+/// a fit through a coarse crossing that turns out of any plane drifts along the chord, and the
+/// nodes, exact on the crossing, bunched (cross hole at Gmsh's sizes once its 16 false corners were
+/// gone, features.hpp coarse_circle_max_deg: P4 3.78e-5 -> 5.89e-4). Through the chord's point
+/// itself, the nodes along a circular rim are spaced unlike the faces' beside it, projected onto
+/// their surfaces (a plate's hole walls: P6 1.4e-10 -> 7.5e-8).
 /// The curve point stays:
 /// - where an end fit found its points on a circle (CurveFit::on_circle): exact, while the
 ///   surface fits of a thin plate's walls are not (a stadium's arcs moved 4.8e-4 off their circle);
@@ -129,7 +146,10 @@ Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const We
   const CurveFit &c0 = curves.fits[2 * e], &c1 = curves.fits[2 * e + 1];
   const bool fitted = c0.points > 2 || c1.points > 2;
   if (T.edge_faces[e].size() == 2 && exact_sides(mesh, T, W, fits, e)) {
-    const Eigen::Vector3d x = surface_crossing(mesh, T, W, fits, e, t, line);
+    const Eigen::Vector3d a = mesh.V.row(T.E(e, 0)).transpose(), b = mesh.V.row(T.E(e, 1)).transpose();
+    const Eigen::Vector3d mid = surface_crossing(mesh, T, W, fits, e, 0.5, curve_edge_point(mesh, T, curves, e, 0.5), 0.5 * (a + b));
+    const double s = arc_chord_fraction((mid - 0.5 * (a + b)).norm() / (0.5 * (b - a).norm()), t);
+    const Eigen::Vector3d x = surface_crossing(mesh, T, W, fits, e, t, line, (1 - s) * a + s * b);
     return (x - line).norm() <= 0.25 * (mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0))).norm() ? x : line;
   }
   if (T.edge_faces[e].size() != 2 || (fitted && (c0.on_circle || c1.on_circle)) ||
@@ -140,7 +160,7 @@ Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const We
   if (!fitted && ctx.feat &&
       (feature_valence(T, *ctx.feat, T.E(e, 0)) < 3 || feature_valence(T, *ctx.feat, T.E(e, 1)) < 3))
     return line;
-  const Eigen::Vector3d x = surface_crossing(mesh, T, W, fits, e, t, line);
+  const Eigen::Vector3d x = surface_crossing(mesh, T, W, fits, e, t, line, line);
   const double len = (mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0))).norm();
   return (x - line).norm() <= (fitted ? 1e-3 : 0.05) * len ? x : line;
 }

@@ -302,4 +302,74 @@ long long share_exact_fits(const Mesh& mesh, const Wedges& W, const ExactQuadric
   return shared;
 }
 
+long long refit_shared_surfaces(const Mesh& mesh, const Wedges& W, const ExactQuadricOptions& opt,
+                                std::vector<LocalFit>& fits) {
+  const int nw = W.num_wedges();
+  auto holds = [&](int w) { return fits[w].exact && !fits[w].apex && fits[w].surface; };
+  // Wedges join where they hold one surface, or two that both hold a face at both: the pieces of
+  // one CAD face (a merge of two, as at a tangent junction, fits neither and is left as it was).
+  std::vector<int> parent(nw);
+  for (int w = 0; w < nw; ++w) parent[w] = w;
+  auto join = [&](int a, int b) {
+    a = find_root(parent, a), b = find_root(parent, b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  };
+  for (int f = 0; f < mesh.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j)
+      for (int k = j + 1; k < 3; ++k) {
+        const int a = W.corner_wedge(f, j), b = W.corner_wedge(f, k);
+        if (a == b || !holds(a) || !holds(b)) continue;
+        double side_a = 0, side_b = 0;
+        if (fits[a].surface == fits[b].surface ||
+            (face_on(mesh, f, *fits[a].surface, opt, side_a) && face_on(mesh, f, *fits[b].surface, opt, side_b)))
+          join(a, b);
+      }
+  // Groups in order of their first wedge (deterministic).
+  std::vector<std::vector<int>> groups;
+  std::vector<int> group_of(nw, -1);
+  for (int w = 0; w < nw; ++w) {
+    if (!holds(w)) continue;
+    int& g = group_of[find_root(parent, w)];
+    if (g < 0) g = static_cast<int>(groups.size()), groups.emplace_back();
+    groups[g].push_back(w);
+  }
+  std::erase_if(groups, [](const std::vector<int>& g) { return g.size() < 2; });
+  std::vector<std::shared_ptr<const ExactQuadric>> refit(groups.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, groups.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t g = r.begin(); g < r.end(); ++g) {
+      const ExactQuadric& Q = *fits[groups[g][0]].surface;
+      std::vector<int> faces;
+      for (int w : groups[g]) faces.insert(faces.end(), W.wedge_faces.begin() + W.wedge_start[w], W.wedge_faces.begin() + W.wedge_start[w + 1]);
+      std::sort(faces.begin(), faces.end());
+      faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+      const std::vector<int> verts = face_corners(mesh, faces.data(), faces.data() + faces.size());
+      Eigen::MatrixXd P(verts.size(), 3);
+      for (size_t i = 0; i < verts.size(); ++i) P.row(i) = mesh.V.row(verts[i]);
+      const bool plane = !Q.cyclide() && Q.c.head<6>().squaredNorm() == 0;
+      ExactQuadric R = Q.cyclide() ? fit_exact_cyclide(P) : fit_exact_quadric(P, plane);
+      R.tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
+      if (!determined(R, R.tolerance, opt) || reducible(R) || R.cyclide() != Q.cyclide() ||
+          plane != (!R.cyclide() && R.c.head<6>().squaredNorm() == 0))
+        continue;
+      double side = 0;
+      bool agree = true;
+      for (size_t i = 0; i < faces.size() && agree; ++i) agree = face_agrees(mesh, faces[i], R, opt, side);
+      if (agree) refit[g] = std::make_shared<const ExactQuadric>(R);
+    }
+  });
+  long long count = 0;
+  for (size_t g = 0; g < groups.size(); ++g) {
+    if (!refit[g]) continue;
+    ++count;
+    for (int w : groups[g]) {
+      LocalFit& F = fits[w];
+      Eigen::Vector3d n = refit[g]->gradient(F.o).normalized();
+      F.n = n.dot(F.n) < 0 ? Eigen::Vector3d(-n) : n;
+      tangent_frame(F.n, F.t1, F.t2);
+      F.surface = refit[g];
+    }
+  }
+  return count;
+}
+
 }  // namespace hocurve

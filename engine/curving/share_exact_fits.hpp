@@ -30,6 +30,18 @@ bool wedge_faces_on(const Mesh& mesh, const Wedges& W, int w, const ExactQuadric
 /// the last one's fits only: deterministic). Returns how many took one.
 long long share_exact_fits(const Mesh& mesh, const Wedges& W, const ExactQuadricOptions& opt, std::vector<LocalFit>& fits);
 
+/// The exact surfaces of wedges joined by their faces (two wedges join where each one's surface
+/// holds a face at both, face_on, or both hold the same surface: one CAD face), refitted to the
+/// corners of all the group's faces where that fit is determined, has every face's normal along it
+/// and is of the same kind (plane, quadric, cyclide) as the first wedge's; the group's wedges then
+/// hold the refit. Why: a wedge takes a neighbour's surface where its corners are within twice the
+/// tolerance of it (share_exact_fits), and a surface fitted to one stencil drifts by about that
+/// much where it is extrapolated: a float32 torus at h = 0.05 had 3074 wedges on shared cyclides
+/// and nodes 6-7e-7 off (P4 7.7e-7; 7.1e-8 before sharing, 6.4e-8 refitted as one surface).
+/// Returns how many surfaces were refitted.
+long long refit_shared_surfaces(const Mesh& mesh, const Wedges& W, const ExactQuadricOptions& opt,
+                                std::vector<LocalFit>& fits);
+
 /// Per face whose corners' fits are not all exact, those that are not all of wedges whose faces
 /// turn by more than opt.min_turn_deg (or one-sided: where a wedge tries its own): the exact fit, among those of the wedges of the
 /// faces round its corners, whose surface holds the face (face_on), where all that do agree on its

@@ -73,6 +73,14 @@ Mesh polygon_disk(int k) {
   return m;
 }
 
+/// Flat elliptic disk (semi-axes a, b), k boundary vertices equally spaced in angle: centre fan.
+Mesh ellipse_disk(int k, double a, double b) {
+  Mesh m = polygon_disk(k);
+  m.V.col(0) *= a;
+  m.V.col(1) *= b;
+  return m;
+}
+
 /// Every curve is a connected vertex chain over feature edges, ends at corners or closes, and
 /// the curves partition the feature edges.
 void check_curves(const Mesh& m, const Features& F) {
@@ -418,12 +426,24 @@ TEST_CASE("entity borders without geometry: the uv sphere's equator") {
 }
 
 TEST_CASE("open boundary: corners where the boundary turns more than corner_angle") {
-  // Octagon turns 45° per vertex > 35°: 8 corners, 8 one-edge curves.
-  Features F = detect(polygon_disk(8));
-  CHECK(F.boundary_edges == 8);
-  CHECK(F.corners == 8);
-  CHECK(F.curves.size() == 8);
-  check_curves(polygon_disk(8), F);
+  // A square turns 90° per vertex > 35°: 4 corners, 4 one-edge curves.
+  Features F = detect(polygon_disk(4));
+  CHECK(F.boundary_edges == 4);
+  CHECK(F.corners == 4);
+  CHECK(F.curves.size() == 4);
+  check_curves(polygon_disk(4), F);
+  // A hexagon and an octagon turn 60° and 45° alike: coarse circles (coarse_circle_max_deg), as
+  // a coarse mesh has round a hole; 6 and 8 corners with that turned off.
+  FeatureOptions polygons;
+  polygons.coarse_circle_max_deg = 0;
+  for (int k : {6, 8}) {
+    CHECK(detect(polygon_disk(k)).corners == 0);
+    CHECK(detect(polygon_disk(k)).closed_curves == 1);
+    CHECK(detect(polygon_disk(k), polygons).corners == k);
+    CHECK(detect(polygon_disk(k), polygons).curves.size() == static_cast<size_t>(k));
+  }
+  // A coarse ellipse (2:1, 12 vertices) turns 56° at its tips, 35° next to them: no corner.
+  CHECK(detect(ellipse_disk(12, 1.0, 0.5)).corners == 0);
   // 16-gon turns 22.5°: one closed loop, no corner.
   F = detect(polygon_disk(16));
   CHECK(F.corners == 0);
@@ -442,8 +462,6 @@ TEST_CASE("open boundary: corners where the boundary turns more than corner_angl
   CHECK(F.corners == 0);
   CHECK(F.closed_curves == 1);
   check_curves(polygon_disk(10), F);
-  FeatureOptions polygons;
-  polygons.coarse_circle_max_deg = 0;
   CHECK(detect(polygon_disk(10), polygons).corners == 10);
   // A vertex turning 36° between neighbours that do not (a 16-gon with one vertex pulled out) stays a corner.
   // Vertex 1 at radius 1.05 turns 36.5°, its neighbours 15.5°.
