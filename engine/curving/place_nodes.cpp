@@ -150,7 +150,7 @@ Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const We
     const Eigen::Vector3d mid = surface_crossing(mesh, T, W, fits, e, 0.5, curve_edge_point(mesh, T, curves, e, 0.5), 0.5 * (a + b));
     const double s = arc_chord_fraction((mid - 0.5 * (a + b)).norm() / (0.5 * (b - a).norm()), t);
     const Eigen::Vector3d x = surface_crossing(mesh, T, W, fits, e, t, line, (1 - s) * a + s * b);
-    return (x - line).norm() <= 0.25 * (mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0))).norm() ? x : line;
+    return (x - line).norm() <= 0.25 * (b - a).norm() ? x : line;
   }
   if (T.edge_faces[e].size() != 2 || (fitted && (c0.on_circle || c1.on_circle)) ||
       (ctx.long_edge && !ctx.long_edge->edge.empty() && ctx.long_edge->edge[e]))
