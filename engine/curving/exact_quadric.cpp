@@ -237,7 +237,7 @@ double coordinate_rounding(const Mesh& mesh) {
 
 bool plane_pair(const ExactQuadric& Q) {
   const auto& c = Q.c;
-  if (Q.cyclide() || c.head<6>().squaredNorm() == 0) return false;
+  if (Q.cyclide() || Q.plane()) return false;
   Eigen::Matrix4d A;
   A << c[0], c[3] / 2, c[5] / 2, c[6] / 2, c[3] / 2, c[1], c[4] / 2, c[7] / 2, c[5] / 2, c[4] / 2, c[2], c[8] / 2,
       c[6] / 2, c[7] / 2, c[8] / 2, c[9];
@@ -420,7 +420,7 @@ ExactQuadric wedge_plane(const Mesh& mesh, const Wedges& W, int w, const ExactQu
       apart.push_back(x);
   if (apart.size() < 5) return ExactQuadric();
   ExactQuadric Q = fit_region(mesh, faces, {}, opt, true);
-  if (Q.cyclide() || Q.c.head<6>().squaredNorm() > 0) Q.valid = false;  // a fan of 12 or more: only its plane
+  if (!Q.plane()) Q.valid = false;  // a fan of 12 or more: only its plane
   return Q;
 }
 

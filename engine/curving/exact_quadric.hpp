@@ -31,6 +31,8 @@ struct ExactQuadric {
   bool valid = false;       ///< fitted (enough points, finite, determined)
   /// A cyclide's quartic terms, not a quadric.
   bool cyclide() const { return c.tail<4>().squaredNorm() > 0; }
+  /// A plane: only the linear and constant terms.
+  bool plane() const { return !cyclide() && c.head<6>().squaredNorm() == 0; }
   /// q at world point x.
   double value(const Eigen::Vector3d& x) const;
   /// First-order distance of x to the quadric, world units (infinite where the gradient is 0).

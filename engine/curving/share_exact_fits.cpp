@@ -345,11 +345,9 @@ long long refit_shared_surfaces(const Mesh& mesh, const Wedges& W, const ExactQu
       const std::vector<int> verts = face_corners(mesh, faces.data(), faces.data() + faces.size());
       Eigen::MatrixXd P(verts.size(), 3);
       for (size_t i = 0; i < verts.size(); ++i) P.row(i) = mesh.V.row(verts[i]);
-      const bool plane = !Q.cyclide() && Q.c.head<6>().squaredNorm() == 0;
-      ExactQuadric R = Q.cyclide() ? fit_exact_cyclide(P) : fit_exact_quadric(P, plane);
+      ExactQuadric R = Q.cyclide() ? fit_exact_cyclide(P) : fit_exact_quadric(P, Q.plane());
       R.tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
-      if (!determined(R, R.tolerance, opt) || reducible(R) || R.cyclide() != Q.cyclide() ||
-          plane != (!R.cyclide() && R.c.head<6>().squaredNorm() == 0))
+      if (!determined(R, R.tolerance, opt) || reducible(R) || R.cyclide() != Q.cyclide() || R.plane() != Q.plane())
         continue;
       double side = 0;
       bool agree = true;
