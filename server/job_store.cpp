@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <sys/file.h>
 #include <sys/stat.h>
+#include <thread>
 #include <unistd.h>
 
 namespace hocurve::server {
@@ -128,16 +129,23 @@ JobStore::JobStore(std::string data_dir) : data_dir_(std::move(data_dir)) {
   const std::string lock = lock_path();
   lock_fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (lock_fd_ < 0) throw std::runtime_error("cannot open " + lock + ": " + std::strerror(errno));
-  if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+  // A daemon killed with -9 can leave the lock held for a moment by a worker it had just forked:
+  // the child holds a copy of every descriptor until its exec closes this one, or until it dies
+  // with its parent, which on a loaded machine takes a while. A restart waits up to two seconds
+  // for that before it refuses (a restart right after kill -9 failed once in CI).
+  for (int waited_ms = 0; ::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0; waited_ms += 50) {
     const int err = errno;
     if (err != EWOULDBLOCK) {  // a file system without locks (some NFS mounts): run, unguarded
       log_warn("cannot lock the data directory; make sure no other hocurved uses it",
                {{"lock", lock}, {"error", std::strerror(err)}});
       return;
     }
-    ::close(lock_fd_);
-    lock_fd_ = -1;
-    throw std::runtime_error("another hocurved is using this data directory (" + lock + " is locked)");
+    if (waited_ms >= 2000) {
+      ::close(lock_fd_);
+      lock_fd_ = -1;
+      throw std::runtime_error("another hocurved is using this data directory (" + lock + " is locked)");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   lock_held_ = true;
 }

@@ -16,6 +16,8 @@
 #include <set>
 #include <sstream>
 #include <sys/file.h>
+#include <thread>
+#include <chrono>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -324,6 +326,27 @@ TEST_CASE("job store: a deleted data directory and its lost lock") {
   ::close(other);
   CHECK(store.check_storage().empty());
   CHECK_THROWS(JobStore(dir));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("job store: a lock held for a moment is waited for, one held on is refused") {
+  // After kill -9 a worker forked just before holds a copy of the lock's descriptor until it
+  // execs or dies: here another open file of the lock, released after 0.3 s.
+  const std::string dir = temp_dir("hocurve-lock-wait");
+  fs::create_directories(dir);
+  const int other = ::open((dir + "/lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  REQUIRE(other >= 0);
+  REQUIRE(::flock(other, LOCK_EX | LOCK_NB) == 0);
+  std::thread release([other] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    ::close(other);
+  });
+  CHECK_NOTHROW(JobStore{dir});
+  release.join();
+  const int held = ::open((dir + "/lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  REQUIRE(::flock(held, LOCK_EX | LOCK_NB) == 0);
+  CHECK_THROWS_WITH(JobStore{dir}, doctest::Contains("another hocurved"));
+  ::close(held);
   fs::remove_all(dir);
 }
 
