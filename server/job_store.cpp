@@ -133,19 +133,20 @@ JobStore::JobStore(std::string data_dir) : data_dir_(std::move(data_dir)) {
   // the child holds a copy of every descriptor until its exec closes this one, or until it dies
   // with its parent, which on a loaded machine takes a while. A restart waits up to two seconds
   // for that before it refuses (a restart right after kill -9 failed once in CI).
-  for (int waited_ms = 0; ::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0; waited_ms += 50) {
+  constexpr int lock_wait_ms = 2000, lock_poll_ms = 50;
+  for (int waited_ms = 0; ::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0; waited_ms += lock_poll_ms) {
     const int err = errno;
     if (err != EWOULDBLOCK) {  // a file system without locks (some NFS mounts): run, unguarded
       log_warn("cannot lock the data directory; make sure no other hocurved uses it",
                {{"lock", lock}, {"error", std::strerror(err)}});
       return;
     }
-    if (waited_ms >= 2000) {
+    if (waited_ms >= lock_wait_ms) {
       ::close(lock_fd_);
       lock_fd_ = -1;
       throw std::runtime_error("another hocurved is using this data directory (" + lock + " is locked)");
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::this_thread::sleep_for(std::chrono::milliseconds(lock_poll_ms));
   }
   lock_held_ = true;
 }

@@ -9,6 +9,7 @@
 
 #include <doctest/doctest.h>
 
+#include <chrono>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -17,7 +18,6 @@
 #include <sstream>
 #include <sys/file.h>
 #include <thread>
-#include <chrono>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -45,6 +45,17 @@ std::string temp_dir(const char* name) {
   fs::remove_all(p);
   fs::create_directories(p);
   return p.string();
+}
+
+/// Locks dir/lock through another open file (flock: it conflicts with the store's, as another
+/// process's would); the descriptor, or -1.
+int lock_elsewhere(const std::string& dir) {
+  const int fd = ::open((dir + "/lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd >= 0 && ::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
 }
 }  // namespace
 
@@ -319,9 +330,8 @@ TEST_CASE("job store: a deleted data directory and its lost lock") {
   CHECK_THROWS(JobStore(dir));
   // Lock file replaced by one another process holds (flock: another open file conflicts too).
   fs::remove(dir + "/lock");
-  const int other = ::open((dir + "/lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  const int other = lock_elsewhere(dir);
   REQUIRE(other >= 0);
-  REQUIRE(::flock(other, LOCK_EX | LOCK_NB) == 0);
   CHECK(store.check_storage().find("another process") != std::string::npos);
   ::close(other);
   CHECK(store.check_storage().empty());
@@ -333,18 +343,16 @@ TEST_CASE("job store: a lock held for a moment is waited for, one held on is ref
   // After kill -9 a worker forked just before holds a copy of the lock's descriptor until it
   // execs or dies: here another open file of the lock, released after 0.3 s.
   const std::string dir = temp_dir("hocurve-lock-wait");
-  fs::create_directories(dir);
-  const int other = ::open((dir + "/lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  const int other = lock_elsewhere(dir);
   REQUIRE(other >= 0);
-  REQUIRE(::flock(other, LOCK_EX | LOCK_NB) == 0);
   std::thread release([other] {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     ::close(other);
   });
   CHECK_NOTHROW(JobStore{dir});
   release.join();
-  const int held = ::open((dir + "/lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  REQUIRE(::flock(held, LOCK_EX | LOCK_NB) == 0);
+  const int held = lock_elsewhere(dir);
+  REQUIRE(held >= 0);
   CHECK_THROWS_WITH(JobStore{dir}, doctest::Contains("another hocurved"));
   ::close(held);
   fs::remove_all(dir);
