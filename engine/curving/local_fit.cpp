@@ -884,6 +884,12 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
     if (attempt == 0 || trial.degree > fit.degree) fit = trial;
   }
 
+  if (scratch.compare_with_degree_4 && fit.degree == p && !fit.identity) {
+    const LocalFit low =
+        solve_height_fit(o, fit.n, h, P, wt, 4, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, reference_of(fit));
+    scratch.lower_predicts_better =
+        low.degree == 4 && !(leave_one_out_residual(fit, P, wt) < leave_one_out_residual(low, P, wt));
+  }
   const bool short_of_vertices = fit.degree < p || fit.pivot_ratio < opt.support_condition;
   // Ill-conditioned fits (vertices on a few lines, as on the long strips of CAD exports)
   // extrapolate wildly at high degree: they fall back to a low degree, on the smaller stencil
@@ -1050,6 +1056,29 @@ long long adopt_agreeing_fits(const Mesh& mesh, const Topology& T, const Wedges&
 
 }  // namespace
 
+std::vector<int> feature_ring_distance(const Topology& T, const Wedges& W) {
+  const int nv = static_cast<int>(W.vertex_wedge_start.size()) - 1;
+  std::vector<int> rings(nv, std::numeric_limits<int>::max());
+  std::vector<int> queue;
+  for (int v = 0; v < nv; ++v) {
+    bool feature = W.vertex_wedges(v) > 1;
+    for (auto [e, end] = T.edges_of(v); e != end && !feature; ++e) feature = T.edge_faces[*e].size() != 2;
+    if (feature) {
+      rings[v] = 0;
+      queue.push_back(v);
+    }
+  }
+  for (size_t i = 0; i < queue.size(); ++i)  // breadth first: each vertex is queued once
+    for (auto [e, end] = T.edges_of(queue[i]); e != end; ++e) {
+      const int u = T.other(*e, queue[i]);
+      if (rings[u] == std::numeric_limits<int>::max()) {
+        rings[u] = rings[queue[i]] + 1;
+        queue.push_back(u);
+      }
+    }
+  return rings;
+}
+
 FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
                      const SupportPoints* support, const FitOptions& opt) {
   const auto t0 = Clock::now();
@@ -1072,6 +1101,8 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
   // slot, so the result does not depend on the order.
   const std::vector<int> order = morton_order(mesh, W);
   std::vector<char> gate_refused(nw, 0);
+  const std::vector<int> rings_to_feature =
+      p == 4 && opt.elevated_degree > 4 ? feature_ring_distance(T, W) : std::vector<int>();
   tbb::enumerable_thread_specific<FitScratch> scratch;
   tbb::parallel_for(tbb::blocked_range<int>(0, nw, 64), [&](const tbb::blocked_range<int>& r) {
     FitScratch& s = scratch.local();
@@ -1091,6 +1122,18 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
         }
       }
       gate_refused[w] = s.quadric_gate_refused;
+      const LocalFit& f4 = R.fits[w];
+      if (!rings_to_feature.empty() && rings_to_feature[W.wedge_vertex[w]] >= opt.elevated_feature_rings &&
+          f4.degree == 4 && !f4.exact && !f4.apex && !f4.identity) {
+        // Unchecked: no exact surface to look for again on the larger stencil.
+        s.compare_with_degree_4 = true;
+        s.lower_predicts_better = false;
+        LocalFit high = fit_wedge_unchecked(mesh, T, W, w, opt.elevated_degree, support, sstart, sindex, opt, s);
+        s.compare_with_degree_4 = false;
+        if (high.degree == opt.elevated_degree && !s.lower_predicts_better &&
+            high.pivot_ratio >= opt.high_degree_condition && fit_is_sane(mesh, W, w, high, opt))
+          R.fits[w] = std::move(high);
+      }
     }
   });
   R.agreeing_fits = adopt_agreeing_fits(mesh, T, W, p, support, sstart, sindex, opt, gate_refused, R.fits);
@@ -1100,13 +1143,16 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
     R.shared_exact_fits += tangent_exact_fits(mesh, T, W, opt.exact, R.fits);
     R.refitted_surfaces = refit_shared_surfaces(mesh, W, opt.exact, R.fits);
   }
-  R.degree_histogram.assign(p + 1, 0);
+  int top = p;
+  for (const auto& f : R.fits) top = std::max(top, f.degree);
+  R.degree_histogram.assign(top + 1, 0);
   double pts = 0;
   for (const auto& f : R.fits) {
     ++R.degree_histogram[f.degree];
     if (f.degree < f.requested_degree) ++R.downgraded;
     if (f.support_points > 0) ++R.with_support;
     if (f.exact) ++R.exact_fits;
+    if (f.degree > p && !f.exact) ++R.elevated_fits;
     pts += f.points;
   }
   R.mean_points = nw ? pts / nw : 0;

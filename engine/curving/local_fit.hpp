@@ -144,6 +144,17 @@ struct FitOptions {
   /// min_degree itself (the safeguard, on the degree-6 stencil, over the plane: a cylinder on a
   /// 45 degree chamfer one triangle wide, P6 2.95e-3 -> 1.23e-4, P4 1.24e-4).
   double high_degree_condition = 1e-2;
+  /// Two-sided wedges fitted at degree 4 (P2-P4), not exactly and at least elevated_feature_rings
+  /// rings from a feature vertex, are refitted at this degree (0: off) on its larger stencil; the
+  /// refit is kept where its leave-one-out residual beats degree 4's on the same points. Why: on
+  /// free-form surfaces the fit, not the element, limits P4 (a squashed torus's tube top, radius of
+  /// curvature 0.18 across it, at h = 0.1: nodes 1.2e-4 off the surface, Gmsh's exact-CAD P4 1.4e-5).
+  /// Why leave-one-out: on a torus of long thin faces (400 x 12) degree 6 over four rings of 30
+  /// degrees each put the nodes 1.4e-5 off where degree 4 had 2.4e-6. Why away from features: a
+  /// stencil a feature cuts is lopsided, and degree 6 extrapolates (a loft below its rim, P4 2.1e-4
+  /// -> 4.1e-4). Figures: bench/README.md, session 37.
+  int elevated_degree = 6;
+  int elevated_feature_rings = 2;
   /// Surface fits have degree max(p, min_degree) for elements of order p (fit_degree()): the fit
   /// models the data, the order only says where the nodes go on it. Degree-4 stencils also reach
   /// reference_min_points. Measured (bench/accuracy.py, max error at h = 0.2 / 0.1 / 0.05, p at
@@ -368,11 +379,17 @@ struct FitResult {
   long long shared_exact_fits = 0;        ///< ... of which taken from a neighbour (share_exact_fits)
   long long refitted_surfaces = 0;        ///< shared exact surfaces refitted to all their wedges' corners
   long long apex_fits = 0;                ///< wedges on a cone point's model: its own and its neighbours' (share_apex_fits)
+  long long elevated_fits = 0;            ///< wedges refitted at FitOptions::elevated_degree
   double mean_points = 0;
   double seconds = 0;
 };
 
-/// Fits every wedge of W at degree p (TBB-parallel, deterministic). support may be null.
+/// Per vertex, the number of edges to the nearest feature vertex (one with several wedges, or on
+/// an open or non-manifold edge): 0 on features; INT_MAX where none is connected.
+std::vector<int> feature_ring_distance(const Topology& T, const Wedges& W);
+
+/// Fits every wedge of W at degree p (TBB-parallel, deterministic), some at
+/// FitOptions::elevated_degree when p is 4. support may be null.
 FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
                      const SupportPoints* support, const FitOptions& opt = {});
 
@@ -389,6 +406,11 @@ struct FitScratch {
   /// One-sided wedges fit over their stencil's torus or quadric (reference_fit) instead of the
   /// plane: the agreement pass's candidate (FitOptions::one_sided_torus).
   bool one_sided_torus = false;
+  /// Set by the caller (FitOptions::elevated_degree): the fit also solves degree 4 on its own
+  /// points and reference surface and records in lower_predicts_better whether that one's
+  /// leave-one-out residual is no larger.
+  bool compare_with_degree_4 = false;
+  bool lower_predicts_better = false;
 };
 
 /// The same without the sanity bound (used by fit_wedge).

@@ -35,7 +35,7 @@ nlohmann::json stats_json(const CurveResult& r) {
   j["fits"] = {{"wedges", r.wedges}, {"band_wedges", r.band_wedges},
                {"degree_histogram", hist},
                {"downgraded", r.fits.downgraded},
-               {"with_support", r.fits.with_support}, {"agreeing_fits", r.fits.agreeing_fits}, {"apex_fits", r.fits.apex_fits}, {"exact_fits", r.fits.exact_fits}, {"shared_exact_fits", r.fits.shared_exact_fits}, {"refitted_surfaces", r.fits.refitted_surfaces},
+               {"with_support", r.fits.with_support}, {"agreeing_fits", r.fits.agreeing_fits}, {"apex_fits", r.fits.apex_fits}, {"exact_fits", r.fits.exact_fits}, {"shared_exact_fits", r.fits.shared_exact_fits}, {"refitted_surfaces", r.fits.refitted_surfaces}, {"elevated_fits", r.fits.elevated_fits},
                {"mean_stencil_points", r.fits.mean_points},
                {"seconds", r.fits.seconds}};
   j["curve_fits"] = {{"fitted", r.curve_fits.fitted}, {"downgraded", r.curve_fits.downgraded},

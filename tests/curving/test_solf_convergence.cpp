@@ -178,6 +178,36 @@ TEST_CASE("P4 over the osculating torus beats P4 over the tangent plane") {
   CHECK(s_ref * 10 < s_plane);
 }
 
+TEST_CASE("free-form surface: degree-6 fits away from features beat degree 4 at P4") {
+  // A bumpy sphere (radius 1 + 0.15 (u_x u_y + u_z^3) along the unit direction u): no quadric or
+  // cyclide holds it, so the polynomial fits place the nodes. The distance is estimated to first
+  // order, F / |grad F| with F(x) = |x| - radius(x / |x|): exact to O(error^2 x curvature).
+  auto radius = [](const Eigen::Vector3d& u) { return 1 + 0.15 * (u.x() * u.y() + u.z() * u.z() * u.z()); };
+  auto F = [&](const Eigen::Vector3d& x) { return x.norm() - radius(x.normalized()); };
+  const Dist bumpy = [&](const Eigen::Vector3d& x) {
+    const double e = 1e-6;
+    Eigen::Vector3d g;
+    for (int i = 0; i < 3; ++i) g[i] = (F(x + e * Eigen::Vector3d::Unit(i)) - F(x - e * Eigen::Vector3d::Unit(i))) / (2 * e);
+    return F(x) / g.norm();
+  };
+  std::vector<Mesh> meshes{icosphere(3), icosphere(4)};
+  for (Mesh& m : meshes)
+    for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
+      const Eigen::Vector3d u = m.V.row(i).transpose().normalized();
+      m.V.row(i) = (radius(u) * u).transpose();
+    }
+  CurveOptions off;
+  off.fit.elevated_degree = 0;
+  const std::vector<Row> six = table("bumpy sphere, degree-6 fits", meshes, {4}, bumpy);
+  const std::vector<Row> four = table("bumpy sphere, degree-4 fits", meshes, {4}, bumpy, off);
+  CurveOptions o;
+  o.order = 4;
+  const CurveResult r = curve_mesh(meshes[0], o);
+  MESSAGE("elevated fits: " << r.fits.elevated_fits << " of " << r.fits.fits.size());
+  CHECK(r.fits.elevated_fits > 0);
+  for (size_t i = 0; i < meshes.size(); ++i) CHECK(six[i].err[0] * 2 < four[i].err[0]);
+}
+
 TEST_CASE("jittered sphere and ellipsoid keep the order") {
   const std::vector<int> ps{2, 3, 4};
   std::vector<Mesh> s, e;
