@@ -884,7 +884,7 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
     if (attempt == 0 || trial.degree > fit.degree) fit = trial;
   }
 
-  if (scratch.compare_with_degree_4 && fit.degree == p && !fit.identity) {
+  if (scratch.compare_with_degree_4 && p > 4 && fit.degree == p && !fit.identity) {
     const LocalFit low =
         solve_height_fit(o, fit.n, h, P, wt, 4, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, reference_of(fit));
     scratch.lower_predicts_better =
@@ -945,6 +945,29 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
     }
   }
   return fit;
+}
+
+std::vector<int> feature_ring_distance(const Topology& T, const Wedges& W) {
+  const int nv = static_cast<int>(W.vertex_wedge_start.size()) - 1;
+  std::vector<int> rings(nv, std::numeric_limits<int>::max());
+  std::vector<int> queue;
+  for (int v = 0; v < nv; ++v) {
+    bool feature = W.vertex_wedges(v) > 1;
+    for (auto [e, end] = T.edges_of(v); e != end && !feature; ++e) feature = T.edge_faces[*e].size() != 2;
+    if (feature) {
+      rings[v] = 0;
+      queue.push_back(v);
+    }
+  }
+  for (size_t i = 0; i < queue.size(); ++i)  // breadth first: each vertex is queued once
+    for (auto [e, end] = T.edges_of(queue[i]); e != end; ++e) {
+      const int u = T.other(*e, queue[i]);
+      if (rings[u] == std::numeric_limits<int>::max()) {
+        rings[u] = rings[queue[i]] + 1;
+        queue.push_back(u);
+      }
+    }
+  return rings;
 }
 
 namespace {
@@ -1054,30 +1077,46 @@ long long adopt_agreeing_fits(const Mesh& mesh, const Topology& T, const Wedges&
   return adopted;
 }
 
-}  // namespace
-
-std::vector<int> feature_ring_distance(const Topology& T, const Wedges& W) {
-  const int nv = static_cast<int>(W.vertex_wedge_start.size()) - 1;
-  std::vector<int> rings(nv, std::numeric_limits<int>::max());
-  std::vector<int> queue;
-  for (int v = 0; v < nv; ++v) {
-    bool feature = W.vertex_wedges(v) > 1;
-    for (auto [e, end] = T.edges_of(v); e != end && !feature; ++e) feature = T.edge_faces[*e].size() != 2;
-    if (feature) {
-      rings[v] = 0;
-      queue.push_back(v);
-    }
+/// FitOptions::elevated_degree: refits the candidate degree-4 wedges at that degree, unless the
+/// median candidate turns by at most exact.min_turn_deg (a fine mesh, fitted to rounding at degree
+/// 4). Why the median, not each wedge's turn: a bumpy sphere's flatter wedges kept degree 4 next to
+/// degree-6 neighbours, P4 2.5e-8 -> 4.7e-7 (2.98e-7 with degree 4 everywhere).
+void elevate_fits(const Mesh& mesh, const Topology& T, const Wedges& W, const SupportPoints* support,
+                  const std::vector<int>& sstart, const std::vector<int>& sindex, const FitOptions& opt,
+                  std::vector<LocalFit>& fits) {
+  if (opt.elevated_degree <= 4) return;
+  const std::vector<int> rings = feature_ring_distance(T, W);
+  std::vector<int> candidates;
+  std::vector<double> turns;
+  for (int w = 0; w < W.num_wedges(); ++w) {
+    const LocalFit& f = fits[w];
+    if (W.one_sided(w) || rings[W.wedge_vertex[w]] < opt.elevated_feature_rings || f.degree != 4 || f.exact ||
+        f.apex || f.identity)
+      continue;
+    candidates.push_back(w);
+    turns.push_back(wedge_turn_deg(mesh, W, w, f.n));
   }
-  for (size_t i = 0; i < queue.size(); ++i)  // breadth first: each vertex is queued once
-    for (auto [e, end] = T.edges_of(queue[i]); e != end; ++e) {
-      const int u = T.other(*e, queue[i]);
-      if (rings[u] == std::numeric_limits<int>::max()) {
-        rings[u] = rings[queue[i]] + 1;
-        queue.push_back(u);
-      }
+  if (candidates.empty()) return;
+  std::nth_element(turns.begin(), turns.begin() + turns.size() / 2, turns.end());
+  if (!(turns[turns.size() / 2] > opt.exact.min_turn_deg)) return;
+  tbb::enumerable_thread_specific<FitScratch> scratch;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
+    FitScratch& s = scratch.local();
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      const int w = candidates[i];
+      // Unchecked: no exact surface to look for again on the larger stencil.
+      s.compare_with_degree_4 = true;
+      s.lower_predicts_better = false;
+      LocalFit high = fit_wedge_unchecked(mesh, T, W, w, opt.elevated_degree, support, sstart, sindex, opt, s);
+      s.compare_with_degree_4 = false;
+      if (high.degree == opt.elevated_degree && !s.lower_predicts_better &&
+          high.pivot_ratio >= opt.high_degree_condition && fit_is_sane(mesh, W, w, high, opt))
+        fits[w] = std::move(high);
     }
-  return rings;
+  });
 }
+
+}  // namespace
 
 FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
                      const SupportPoints* support, const FitOptions& opt) {
@@ -1101,8 +1140,6 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
   // slot, so the result does not depend on the order.
   const std::vector<int> order = morton_order(mesh, W);
   std::vector<char> gate_refused(nw, 0);
-  const std::vector<int> rings_to_feature =
-      p == 4 && opt.elevated_degree > 4 ? feature_ring_distance(T, W) : std::vector<int>();
   tbb::enumerable_thread_specific<FitScratch> scratch;
   tbb::parallel_for(tbb::blocked_range<int>(0, nw, 64), [&](const tbb::blocked_range<int>& r) {
     FitScratch& s = scratch.local();
@@ -1122,20 +1159,9 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
         }
       }
       gate_refused[w] = s.quadric_gate_refused;
-      const LocalFit& f4 = R.fits[w];
-      if (!rings_to_feature.empty() && rings_to_feature[W.wedge_vertex[w]] >= opt.elevated_feature_rings &&
-          f4.degree == 4 && !f4.exact && !f4.apex && !f4.identity) {
-        // Unchecked: no exact surface to look for again on the larger stencil.
-        s.compare_with_degree_4 = true;
-        s.lower_predicts_better = false;
-        LocalFit high = fit_wedge_unchecked(mesh, T, W, w, opt.elevated_degree, support, sstart, sindex, opt, s);
-        s.compare_with_degree_4 = false;
-        if (high.degree == opt.elevated_degree && !s.lower_predicts_better &&
-            high.pivot_ratio >= opt.high_degree_condition && fit_is_sane(mesh, W, w, high, opt))
-          R.fits[w] = std::move(high);
-      }
     }
   });
+  if (p == 4) elevate_fits(mesh, T, W, support, sstart, sindex, opt, R.fits);
   R.agreeing_fits = adopt_agreeing_fits(mesh, T, W, p, support, sstart, sindex, opt, gate_refused, R.fits);
   R.apex_fits = share_apex_fits(T, W, opt, R.fits);
   if (opt.exact_quadrics && p > 1) {
