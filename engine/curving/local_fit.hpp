@@ -145,15 +145,16 @@ struct FitOptions {
   /// 45 degree chamfer one triangle wide, P6 2.95e-3 -> 1.23e-4, P4 1.24e-4).
   double high_degree_condition = 1e-2;
   /// Two-sided wedges fitted at degree 4 (P2-P4), not exactly and at least elevated_feature_rings
-  /// rings from a feature vertex (feature_ring_distance), are refitted at this degree (0: off) on its larger stencil; the
-  /// refit is kept where its leave-one-out residual beats degree 4's on the same points. Why: on
+  /// rings from a feature vertex (feature_ring_distance), are refitted at this degree (0: off) on
+  /// its larger stencil; the refit is kept where its leave-one-out residual beats degree 4's on the
+  /// same points and reference surface (elevate_fits, local_fit.cpp). Why: on
   /// free-form surfaces the fit, not the element, limits P4 (a squashed torus's tube top, radius of
   /// curvature 0.18 across it, at h = 0.1: nodes 1.2e-4 off the surface, Gmsh's exact-CAD P4 1.4e-5).
   /// Why leave-one-out: on a torus of long thin faces (400 x 12) degree 6 over four rings of 30
   /// degrees each put the nodes 1.4e-5 off where degree 4 had 2.4e-6. Why away from features: a
   /// stencil a feature cuts is lopsided, and degree 6 extrapolates (a loft below its rim, P4 2.1e-4
   /// -> 4.1e-4). Not on meshes whose median such wedge turns by at most exact.min_turn_deg: there
-  /// degree 4 already fits to rounding (the 200k-triangle sphere: 3.2 -> 8.0 s for nothing).
+  /// degree 4 already fits to rounding (the 200k-triangle sphere: 3.1 -> 8.0 s for nothing).
   /// Figures: bench/README.md, session 37.
   int elevated_degree = 6;
   int elevated_feature_rings = 2;
