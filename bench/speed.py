@@ -1,13 +1,15 @@
 #!/usr/bin/python3
 """Wall time and peak memory: hocurve vs Gmsh elevating the same STL to P4 and writing binary MSH 4.1.
 
-Cases: the ~200k-triangle Gmsh sphere (hocurve and Gmsh) and the 2.39M-triangle analytic icosphere
-(hocurve only; --gmsh-big adds Gmsh, which took 131 s and 4.5 GB in an earlier measurement).
+Cases: the ~200k-triangle Gmsh sphere (hocurve and Gmsh), the 2.39M-triangle analytic icosphere
+(hocurve only; --gmsh-big adds Gmsh, which took 131 s and 4.5 GB in an earlier measurement) and the
+scans of ../shared/meshes (--no-scans skips them): hocurve curves the file as given, Gmsh elevates
+the same triangles, read from a linear .msh hocurve writes first (Gmsh reads no OBJ), untimed.
 Each program runs in a fresh child process of a small wrapper process, so the peak RSS reported
 (getrusage(RUSAGE_CHILDREN).ru_maxrss of that wrapper) belongs to that one run only.
 
 Usage: speed.py [--out DIR] [--hocurve BIN] [--threads 2] [--order 4] [--gmsh-big] [--no-big]
-                [--json FILE]
+                [--no-scans] [--json FILE]
 """
 import argparse
 import json
@@ -53,8 +55,23 @@ def measured(cmd, timeout=3600):
     return json.loads(r.stdout.decode())
 
 
-def triangles(stl):
-    return (os.path.getsize(stl) - 84) // 50
+SCANS = ["stanford_bunny_scan.obj", "hammer_scan.obj", "boot.obj", "armadillo.obj"]
+
+
+def triangles(path):
+    if path.endswith(".stl"):
+        return (os.path.getsize(path) - 84) // 50
+    with open(path) as f:
+        return sum(1 for line in f if line.startswith("f "))
+
+
+def linear_msh(hoc, src, work):
+    """src's triangles as a linear .msh for Gmsh (written by hocurve --method linear --order 1)."""
+    out = os.path.join(work, os.path.splitext(os.path.basename(src))[0] + "_p1.msh")
+    if not os.path.exists(out):
+        subprocess.run([hoc, "curve", src, "-o", out, "--order", "1", "--method", "linear"], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return out
 
 
 def main(argv):
@@ -65,20 +82,28 @@ def main(argv):
     ap.add_argument("--order", type=int, default=4)
     ap.add_argument("--gmsh-big", action="store_true", help="also run Gmsh on the 2.4M sphere")
     ap.add_argument("--no-big", action="store_true", help="skip the 2.4M sphere")
+    ap.add_argument("--no-scans", action="store_true", help="skip the shared scans")
     ap.add_argument("--json", help="write the figures as JSON here")
     a = ap.parse_args(argv)
     hoc = a.hocurve or find_hocurve()
     work = os.path.join(a.out, "speed")
     os.makedirs(work, exist_ok=True)
-    cases = [("sphere ~200k", shapes.make_speed_sphere(a.out), True)]
+    sphere = shapes.make_speed_sphere(a.out)
+    cases = [("sphere ~200k", sphere, sphere, True)]
     if not a.no_big:
-        cases.append(("icosphere 2.39M", shapes.make_big_sphere(a.out), a.gmsh_big))
+        big = shapes.make_big_sphere(a.out)
+        cases.append(("icosphere 2.39M", big, big, a.gmsh_big))
+    if not a.no_scans and hoc:
+        for name in SCANS:
+            src = os.path.join(shapes.SHARED, "meshes", name)
+            if os.path.exists(src):
+                cases.append((name, src, linear_msh(hoc, src, work), True))
     rows = []
-    for label, stl, with_gmsh in cases:
-        n = triangles(stl)
+    for label, src, gmsh_input, with_gmsh in cases:
+        n = triangles(src)
         if hoc:
             out = os.path.join(work, "hocurve_p%d.msh" % a.order)
-            r = measured([hoc, "curve", stl, "-o", out, "--order", str(a.order), "--binary",
+            r = measured([hoc, "curve", src, "-o", out, "--order", str(a.order), "--binary",
                           "--threads", str(a.threads), "--stats", os.path.join(work, "stats.json")])
             r.update(case=label, triangles=n, program="hocurve --threads %d" % a.threads,
                      output_mb=os.path.getsize(out) / 1e6 if os.path.exists(out) else None)
@@ -95,7 +120,7 @@ def main(argv):
             print("note: no hocurve binary found; Gmsh only")
         if with_gmsh:
             out = os.path.join(work, "gmsh_p%d.msh" % a.order)
-            r = measured([sys.executable, "-c", GMSH_SCRIPT, stl, str(a.order), out])
+            r = measured([sys.executable, "-c", GMSH_SCRIPT, gmsh_input, str(a.order), out])
             r.update(case=label, triangles=n, program="Gmsh merge+setOrder+write",
                      output_mb=os.path.getsize(out) / 1e6 if os.path.exists(out) else None)
             rows.append(r)

@@ -115,6 +115,8 @@ class SmallQR {
     }
   }
   double diag(int i) const { return qr_(i, i); }
+  /// R(i, j), i <= j (in factored column order).
+  double r(int i, int j) const { return qr_(i, j); }
   /// Numerical rank as ColPivHouseholderQR counts it: pivots above tol x the largest.
   int rank(double tol) const {
     double mx = 0;
@@ -468,23 +470,55 @@ void weighted_design(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::V
 
 }  // namespace
 
-double leave_one_out_residual(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::VectorXd& w) {
-  if (F.degree < 1 || F.identity) return std::numeric_limits<double>::infinity();
+double leave_one_out_residual(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::VectorXd& w,
+                              int lower_degree, double* lower_press) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const int ml = lower_press && lower_degree >= 1 && lower_degree < F.degree ? fit_coefficients(lower_degree) : 0;
+  if (lower_press) *lower_press = inf;
+  if (F.degree < 1 || F.identity) return inf;
   Eigen::MatrixXd A;
   Eigen::VectorXd b;
   weighted_design(F, P, w, Eigen::MatrixXd(), Eigen::VectorXd(), F.degree, A, b);
-  const int m = static_cast<int>(A.cols());
-  if (A.rows() <= m) return std::numeric_limits<double>::infinity();
-  // Hat matrix diagonal h_ii = |row i of the thin Q|^2; a left-out point's residual is r_i / (1 - h_ii).
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(A);
-  const Eigen::MatrixXd Qthin = qr.householderQ() * Eigen::MatrixXd::Identity(A.rows(), m);
+  const int k = static_cast<int>(A.rows()), m = static_cast<int>(A.cols());
+  if (k <= m) return inf;
   const Eigen::VectorXd r = b - A * F.c;
-  double press = 0;
-  for (Eigen::Index i = 0; i < A.rows(); ++i) {
-    const double lev = Qthin.row(i).squaredNorm();
-    if (!(lev < 1 - 1e-9)) return std::numeric_limits<double>::infinity();  // a point only it fixes
-    press += std::pow(r[i] / (1 - lev), 2);
+  // Column scaling changes neither the hat matrix nor the least-squares residuals.
+  for (int j = 0; j < m; ++j) {
+    const double s = A.col(j).norm();
+    if (!(s > 0)) return inf;
+    A.col(j) /= s;
   }
+  SmallQR qr;
+  qr.compute(A, m, false);
+  for (int j = 0; j < m; ++j)
+    if (!(std::abs(qr.diag(j)) > 1e-12)) return inf;
+  // The lower degree's fit: the leading ml columns' least-squares solution, from the same R.
+  Eigen::VectorXd rl;
+  if (ml > 0) {
+    Eigen::VectorXd qtb, cl;
+    qr.apply_qt(b, qtb);
+    qr.solve(qtb, ml, cl);
+    rl = b - A.leftCols(ml) * cl;
+  }
+  // Hat matrix diagonal h_ii = |R^-T a_i|^2 (a_i row i of A); a left-out point's residual is
+  // r_i / (1 - h_ii). R^T is lower triangular: the leading ml entries of R^-T a_i give the
+  // lower degree's leverage.
+  Eigen::VectorXd y(m);
+  double press = 0, pressl = 0;
+  for (int i = 0; i < k; ++i) {
+    double lev = 0, levl = 0;
+    for (int j = 0; j < m; ++j) {
+      double s = A(i, j);
+      for (int l = 0; l < j; ++l) s -= qr.r(l, j) * y[l];
+      y[j] = s / qr.diag(j);
+      lev += y[j] * y[j];
+      if (j + 1 == ml) levl = lev;
+    }
+    if (!(lev < 1 - 1e-9)) return inf;  // a point only it fixes
+    press += std::pow(r[i] / (1 - lev), 2);
+    if (ml > 0) pressl = levl < 1 - 1e-9 ? pressl + std::pow(rl[i] / (1 - levl), 2) : inf;
+  }
+  if (ml > 0) *lower_press = std::sqrt(pressl);
   return std::sqrt(press);
 }
 
@@ -885,10 +919,9 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
   }
 
   if (scratch.compare_with_degree_4 && p > 4 && fit.degree == p && !fit.identity) {
-    const LocalFit low =
-        solve_height_fit(o, fit.n, h, P, wt, 4, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, reference_of(fit));
-    scratch.lower_predicts_better =
-        low.degree == 4 && !(leave_one_out_residual(fit, P, wt) < leave_one_out_residual(low, P, wt));
+    double low = 0;
+    const double high = leave_one_out_residual(fit, P, wt, 4, &low);
+    scratch.loo_ratio = high / low;
   }
   const bool short_of_vertices = fit.degree < p || fit.pivot_ratio < opt.support_condition;
   // Ill-conditioned fits (vertices on a few lines, as on the long strips of CAD exports)
@@ -1079,8 +1112,10 @@ long long adopt_agreeing_fits(const Mesh& mesh, const Topology& T, const Wedges&
 
 /// FitOptions::elevated_degree: refits the candidate degree-4 wedges at that degree, unless the
 /// median candidate turns by at most exact.min_turn_deg (a fine mesh, fitted to rounding at degree
-/// 4). Why the median, not each wedge's turn: a bumpy sphere's flatter wedges kept degree 4 next to
-/// degree-6 neighbours, P4 2.5e-8 -> 4.7e-7 (2.98e-7 with degree 4 everywhere).
+/// 4), or the median of a sample of them (elevated_probes) does not predict its points better by
+/// elevated_gain (noise or rounding, not truncation, sets degree 4's residual). Why per mesh, not
+/// per wedge: a bumpy sphere's flatter wedges kept degree 4 next to degree-6 neighbours, P4 2.5e-8
+/// -> 4.7e-7 (2.98e-7 with degree 4 everywhere).
 void elevate_fits(const Mesh& mesh, const Topology& T, const Wedges& W, const SupportPoints* support,
                   const std::vector<int>& sstart, const std::vector<int>& sindex, const FitOptions& opt,
                   std::vector<LocalFit>& fits) {
@@ -1097,21 +1132,44 @@ void elevate_fits(const Mesh& mesh, const Topology& T, const Wedges& W, const Su
     turns.push_back(wedge_turn_deg(mesh, W, w, f.n));
   }
   if (candidates.empty()) return;
-  std::nth_element(turns.begin(), turns.begin() + turns.size() / 2, turns.end());
-  if (!(turns[turns.size() / 2] > opt.exact.min_turn_deg)) return;
+  const auto median = [](std::vector<double> x) {
+    std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+    return x[x.size() / 2];
+  };
+  if (!(median(turns) > opt.exact.min_turn_deg)) return;
+  // The probes (every stride-th candidate) keep their refits until the gain is known; the rest
+  // go straight to their slots.
+  const size_t n = candidates.size();
+  const size_t stride = std::max<size_t>(1, n / std::max(1, opt.elevated_probes));
   tbb::enumerable_thread_specific<FitScratch> scratch;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
+  const auto refit = [&](size_t i, double& ratio) {
     FitScratch& s = scratch.local();
+    const int w = candidates[i];
+    // Unchecked: no exact surface to look for again on the larger stencil.
+    s.compare_with_degree_4 = true;
+    s.loo_ratio = 1e300;
+    LocalFit high = fit_wedge_unchecked(mesh, T, W, w, opt.elevated_degree, support, sstart, sindex, opt, s);
+    s.compare_with_degree_4 = false;
+    ratio = high.degree == opt.elevated_degree && s.loo_ratio < 1e300 ? s.loo_ratio : 1e300;
+    return high;
+  };
+  const auto keep = [&](size_t i, LocalFit&& high, double ratio) {
+    const int w = candidates[i];
+    if (ratio < 1 && high.pivot_ratio >= opt.high_degree_condition && fit_is_sane(mesh, W, w, high, opt))
+      fits[w] = std::move(high);
+  };
+  const size_t np = (n + stride - 1) / stride;
+  std::vector<LocalFit> probed(np);
+  std::vector<double> probe_ratio(np);
+  tbb::parallel_for(size_t(0), np, [&](size_t j) { probed[j] = refit(j * stride, probe_ratio[j]); });
+  if (!(median(probe_ratio) < opt.elevated_gain)) return;
+  for (size_t j = 0; j < np; ++j) keep(j * stride, std::move(probed[j]), probe_ratio[j]);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 64), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i < r.end(); ++i) {
-      const int w = candidates[i];
-      // Unchecked: no exact surface to look for again on the larger stencil.
-      s.compare_with_degree_4 = true;
-      s.lower_predicts_better = false;
-      LocalFit high = fit_wedge_unchecked(mesh, T, W, w, opt.elevated_degree, support, sstart, sindex, opt, s);
-      s.compare_with_degree_4 = false;
-      if (high.degree == opt.elevated_degree && !s.lower_predicts_better &&
-          high.pivot_ratio >= opt.high_degree_condition && fit_is_sane(mesh, W, w, high, opt))
-        fits[w] = std::move(high);
+      if (i % stride == 0) continue;  // probed
+      double ratio = 0;
+      LocalFit high = refit(i, ratio);
+      keep(i, std::move(high), ratio);
     }
   });
 }

@@ -154,10 +154,16 @@ struct FitOptions {
   /// degrees each put the nodes 1.4e-5 off where degree 4 had 2.4e-6. Why away from features: a
   /// stencil a feature cuts is lopsided, and degree 6 extrapolates (a loft below its rim, P4 2.1e-4
   /// -> 4.1e-4). Not on meshes whose median such wedge turns by at most exact.min_turn_deg: there
-  /// degree 4 already fits to rounding (the 200k-triangle sphere: 3.1 -> 8.0 s for nothing).
-  /// Figures: bench/README.md, session 37.
+  /// degree 4 already fits to rounding (the 200k-triangle sphere: 3.1 -> 8.0 s for nothing), nor
+  /// where the median of elevated_probes candidates spread over the mesh does not predict its
+  /// points better by elevated_gain (leave-one-out residual over degree 4's). Measured medians:
+  /// smooth surfaces 0.014-0.2 (bumpy sphere, torus.obj, squashed torus, loft), scans and remeshed
+  /// scans 0.71-1.28 (noise sets their residuals: stanford_bunny_scan fits 2.5 -> 1.3 s).
+  /// Figures: bench/README.md, sessions 37-38.
   int elevated_degree = 6;
   int elevated_feature_rings = 2;
+  int elevated_probes = 256;
+  double elevated_gain = 0.5;
   /// Surface fits have degree max(p, min_degree) for elements of order p (fit_degree()): the fit
   /// models the data, the order only says where the nodes go on it. Degree-4 stencils also reach
   /// reference_min_points. Measured (bench/accuracy.py, max error at h = 0.2 / 0.1 / 0.05, p at
@@ -358,7 +364,10 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
 /// fitted to: sqrt(sum (r_i / (1 - h_ii))^2), h_ii the hat matrix diagonal, in units of h. How
 /// well the fit predicts a point it did not see: the in-sample residual of a 14-coefficient fit
 /// to 28 points flatters the more flexible reference. Infinity when a point alone fixes the fit.
-double leave_one_out_residual(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::VectorXd& w);
+/// lower_press (when lower_degree < F.degree): the same for the least-squares fit of
+/// lower_degree in F's frame and reference, from the same factorization.
+double leave_one_out_residual(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::VectorXd& w,
+                              int lower_degree = 0, double* lower_press = nullptr);
 
 /// The fit of points P (row weights w) at o, area-weighted normal n0, over a reference surface:
 /// the osculating torus (reference_surface), or the stencil's quadric where that fits much better
@@ -410,10 +419,10 @@ struct FitScratch {
   /// plane: the agreement pass's candidate (FitOptions::one_sided_torus).
   bool one_sided_torus = false;
   /// Set by the caller (FitOptions::elevated_degree): the fit also solves degree 4 on its own
-  /// points and reference surface and records in lower_predicts_better whether that one's
-  /// leave-one-out residual is no larger.
+  /// points and reference surface and records in loo_ratio its leave-one-out residual over that
+  /// one's (left alone when the fit is not of the degree asked).
   bool compare_with_degree_4 = false;
-  bool lower_predicts_better = false;
+  double loo_ratio = 0;
 };
 
 /// The same without the sanity bound (used by fit_wedge).
