@@ -3,6 +3,7 @@
 #include "engine/curving/stencil.hpp"
 
 #include <Eigen/Geometry>
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -74,14 +75,48 @@ double max_distance(const Eigen::MatrixXd& Y, const Coefficients& c, double scal
   return std::isnan(d) ? std::numeric_limits<double>::infinity() : d;
 }
 
+/// Gradients (rows: d/dy0, d/dy1, d/dy2) of the 14 monomials at y (monomials()).
+Eigen::Matrix<double, 3, 14> monomial_gradients(const Eigen::Vector3d& y) {
+  Eigen::Matrix<double, 3, 14> G = Eigen::Matrix<double, 3, 14>::Zero();
+  G(0, 0) = 2 * y[0], G(1, 1) = 2 * y[1], G(2, 2) = 2 * y[2];
+  G(0, 3) = y[1], G(1, 3) = y[0], G(1, 4) = y[2], G(2, 4) = y[1], G(2, 5) = y[0], G(0, 5) = y[2];
+  G(0, 6) = G(1, 7) = G(2, 8) = 1;
+  // d(|y|^2 y_k) = 2 y_k y + |y|^2 e_k, d|y|^4 = 4 |y|^2 y.
+  const double s = y.squaredNorm();
+  for (int k = 0; k < 3; ++k) {
+    G.col(10 + k) = 2 * y[k] * y;
+    G(k, 10 + k) += s;
+  }
+  G.col(13) = 4 * s * y;
+  return G;
+}
+
 /// Q's coefficients: the smallest eigenvector of the normal matrix of the first N monomials of
 /// the points U (rows, scaled to the unit ball; 5x cheaper than the SVD, once per wedge); the
-/// next one is the runner-up.
+/// next one is the runner-up. miss_bound (world units): when no surface of the family is within it
+/// of every point, Q.missed instead (no eigen solve; max_residual infinite).
 template <int N>
-void fit_implicit(const Eigen::MatrixXd& U, ExactQuadric& Q) {
+void fit_implicit(const Eigen::MatrixXd& U, ExactQuadric& Q, double miss_bound) {
   Eigen::Matrix<double, N, N> M = Eigen::Matrix<double, N, N>::Zero();
   for (Eigen::Index i = 0; i < U.rows(); ++i)
     M.template selfadjointView<Eigen::Lower>().rankUpdate(monomials(U.row(i).transpose()).template head<N>());
+  if (miss_bound < std::numeric_limits<double>::infinity()) {
+    // A surface c within miss_bound of every point has |q(y_i)| <= b |grad q(y_i)|, b = miss_bound /
+    // scale, so c^T M c <= b^2 c^T G c (G: the sum of the points' G_i^T G_i, G_i their monomials'
+    // gradients). Where M - b^2 G is positive definite (with room for rounding), no c is: a
+    // Cholesky factor instead of the eigen solve (scans' wedges and edges: none is exact).
+    Eigen::Matrix<double, N, N> G = Eigen::Matrix<double, N, N>::Zero();
+    for (Eigen::Index i = 0; i < U.rows(); ++i)
+      G.template selfadjointView<Eigen::Lower>().rankUpdate(
+          monomial_gradients(U.row(i).transpose()).template leftCols<N>().transpose());
+    Eigen::Matrix<double, N, N> S = M - std::pow(miss_bound / Q.scale, 2) * G;
+    S.diagonal().array() -= 1e-12 * M.trace();
+    if (Eigen::LLT<Eigen::Matrix<double, N, N>>(S).info() == Eigen::Success) {
+      Q.max_residual = Q.runner_up = std::numeric_limits<double>::infinity();
+      Q.missed = true;
+      return;
+    }
+  }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eig(M.template selfadjointView<Eigen::Lower>());
   if (eig.info() != Eigen::Success) return;
   Coefficients runner_up = Coefficients::Zero();
@@ -104,7 +139,7 @@ Eigen::MatrixXd centred(const Eigen::MatrixXd& P, ExactQuadric& Q) {
 
 }  // namespace
 
-ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes) {
+ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes, double miss_bound) {
   ExactQuadric Q;
   const int k = static_cast<int>(P.rows());
   if (k < 4) return Q;
@@ -125,27 +160,11 @@ ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes) {
     }
   }
   if (k < 12) return Q;
-  fit_implicit<10>(Y / Q.scale, Q);
+  fit_implicit<10>(Y / Q.scale, Q, miss_bound);
   return Q;
 }
 
 namespace {
-
-/// Gradients (rows: d/dy0, d/dy1, d/dy2) of the 14 monomials at y (monomials()).
-Eigen::Matrix<double, 3, 14> monomial_gradients(const Eigen::Vector3d& y) {
-  Eigen::Matrix<double, 3, 14> G = Eigen::Matrix<double, 3, 14>::Zero();
-  G(0, 0) = 2 * y[0], G(1, 1) = 2 * y[1], G(2, 2) = 2 * y[2];
-  G(0, 3) = y[1], G(1, 3) = y[0], G(1, 4) = y[2], G(2, 4) = y[1], G(2, 5) = y[0], G(0, 5) = y[2];
-  G(0, 6) = G(1, 7) = G(2, 8) = 1;
-  // d(|y|^2 y_k) = 2 y_k y + |y|^2 e_k, d|y|^4 = 4 |y|^2 y.
-  const double s = y.squaredNorm();
-  for (int k = 0; k < 3; ++k) {
-    G.col(10 + k) = 2 * y[k] * y;
-    G(k, 10 + k) += s;
-  }
-  G.col(13) = 4 * s * y;
-  return G;
-}
 
 /// Largest miss of quadric c (normalised coordinates) on the points Y and the normals N at
 /// points Z: a point's first-order distance, a normal's angle (sine) x scale, world units.
@@ -205,11 +224,11 @@ ExactQuadric fit_tangent_cyclide(const Eigen::MatrixXd& P, const Eigen::MatrixXd
   return fit_tangent<14>(P, X, N);
 }
 
-ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P) {
+ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P, double miss_bound) {
   ExactQuadric Q;
   if (P.rows() < 16) return Q;
   const Eigen::MatrixXd Y = centred(P, Q);
-  if (Q.scale > 0) fit_implicit<14>(Y / Q.scale, Q);
+  if (Q.scale > 0) fit_implicit<14>(Y / Q.scale, Q, miss_bound);
   return Q;
 }
 
@@ -278,8 +297,8 @@ ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::in
   Eigen::MatrixXd P(verts.size(), 3);
   for (size_t i = 0; i < verts.size(); ++i) P.row(i) = mesh.V.row(verts[i]);
   const double tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
-  ExactQuadric Q = fit_exact_quadric(P, planes);
-  if (!determined(Q, tolerance, opt) && opt.cyclides) Q = fit_exact_cyclide(P);
+  ExactQuadric Q = fit_exact_quadric(P, planes, tolerance);
+  if (!determined(Q, tolerance, opt) && opt.cyclides) Q = fit_exact_cyclide(P, tolerance);
   Q.tolerance = tolerance;
   Q.valid = determined(Q, tolerance, opt) && !reducible(Q);
   double largest = 0;
@@ -291,7 +310,9 @@ ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::in
 
 /// Q is a cyclide that misses some of its points: they lie on no cyclide, nor do more points
 /// round them, and no larger region need be tried (scans' wedges, creases).
-bool off_every_cyclide(const ExactQuadric& Q) { return Q.cyclide() && !(Q.max_residual <= Q.tolerance); }
+bool off_every_cyclide(const ExactQuadric& Q) {
+  return (Q.cyclide() || Q.missed) && !(Q.max_residual <= Q.tolerance);
+}
 
 /// Per face of `faces`: 1 where its normal is within max_normal_angle_deg of the quadric's at its
 /// corners, on the side of faces[0].

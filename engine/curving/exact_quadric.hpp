@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <limits>
 #include <vector>
 
 namespace hocurve {
@@ -29,6 +30,7 @@ struct ExactQuadric {
   double runner_up = 0;
   double tolerance = 0;     ///< the distance within which a point counts as on it (fit_region), world units
   bool valid = false;       ///< fitted (enough points, finite, determined)
+  bool missed = false;      ///< no surface of the kind is within the fit's miss_bound of every point
   /// A cyclide's quartic terms, not a quadric.
   bool cyclide() const { return c.tail<4>().squaredNorm() > 0; }
   /// A plane: only the linear and constant terms.
@@ -50,11 +52,14 @@ struct ExactQuadric {
 /// Least-squares implicit quadric through the points (rows of P, at least 12): the smallest
 /// eigenvector of the monomials' normal matrix. planes: points within 1e-3 x their spread of a
 /// plane (at least 4) get that plane. valid: fitted, finite (whether it fits is the caller's).
-ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes = false);
+/// miss_bound: where a cheap test shows that no quadric is within it (world units) of every point,
+/// no fit (missed, max_residual infinite).
+ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes = false,
+                               double miss_bound = std::numeric_limits<double>::infinity());
 
 /// The same for Darboux cyclides (at least 16 points). Points on a sphere or a plane lie on
 /// many cyclides (the sphere times any sphere), so try the quadric first.
-ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P);
+ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P, double miss_bound = std::numeric_limits<double>::infinity());
 
 /// The quadric through the points P whose gradient at the points X (rows) is along the normals N
 /// (rows): least squares of both, the smallest eigenvector as above. max_residual and runner_up

@@ -293,6 +293,20 @@ TEST_CASE("fit_exact_cyclide: exact on a torus, undetermined on a sphere") {
   CHECK(!plane_sphere(C));
   // A sphere times any sphere is a cyclide: the sphere's points determine none.
   CHECK(fit_exact_cyclide(rows(sphere)).runner_up < 1e-10);
+
+  // miss_bound: the cheap test never refuses points within it of the surface, and refuses
+  // points it proves off every cyclide (each moved 1e-3 along the torus normal, alternately in
+  // and out: no cyclide is within 1e-6 of all of them; the fit's own miss is 2.7e-3).
+  const ExactQuadric B = fit_exact_cyclide(rows(torus), 1e-9);
+  CHECK(!B.missed);
+  CHECK(B.max_residual == doctest::Approx(C.max_residual));
+  std::vector<Eigen::Vector3d> noisy = torus;
+  for (size_t i = 0; i < noisy.size(); ++i) noisy[i] += (i % 2 ? 1e-3 : -1e-3) * C.gradient(torus[i]).normalized();
+  const ExactQuadric N = fit_exact_cyclide(rows(noisy));
+  MESSAGE("noisy torus: cyclide misses by " << N.max_residual);
+  CHECK(N.max_residual > 1e-5);
+  CHECK(fit_exact_cyclide(rows(noisy), 1e-6).missed);
+  CHECK(!fit_exact_cyclide(rows(noisy), 2 * N.max_residual).missed);
 }
 
 TEST_CASE("plane_sphere: a plane cap's points and a fillet's far rim lie on a plane times a sphere") {
