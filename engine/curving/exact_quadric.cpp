@@ -106,9 +106,12 @@ void fit_implicit(const Eigen::MatrixXd& U, ExactQuadric& Q, double miss_bound) 
     // gradients). Where M - b^2 G is positive definite (with room for rounding), no c is: a
     // Cholesky factor instead of the eigen solve (scans' wedges and edges: none is exact).
     Eigen::Matrix<double, N, N> G = Eigen::Matrix<double, N, N>::Zero();
-    for (Eigen::Index i = 0; i < U.rows(); ++i)
-      G.template selfadjointView<Eigen::Lower>().rankUpdate(
-          monomial_gradients(U.row(i).transpose()).template leftCols<N>().transpose());
+    for (Eigen::Index i = 0; i < U.rows(); ++i) {
+      const Eigen::Matrix<double, 3, 14> Gi = monomial_gradients(U.row(i).transpose());
+      for (int d = 0; d < 3; ++d)  // rank-1 updates of fixed size: a rank-3 update goes through GEMM
+        G.template selfadjointView<Eigen::Lower>().rankUpdate(
+            Eigen::Matrix<double, N, 1>(Gi.row(d).template head<N>().transpose()));
+    }
     Eigen::Matrix<double, N, N> S = M - std::pow(miss_bound / Q.scale, 2) * G;
     S.diagonal().array() -= 1e-12 * M.trace();
     if (Eigen::LLT<Eigen::Matrix<double, N, N>>(S).info() == Eigen::Success) {
