@@ -58,11 +58,27 @@ Eigen::Vector3d edge_barycentric(const Mesh& mesh, const Topology& T, int e, int
 }
 
 namespace {
-/// What a feature edge's placement may consult besides the fits (either may be null).
+/// Feature edge points at the parameters the placement asks for again and again (edge nodes,
+/// curve_sides_within's quarters, face nodes' side points), each computed once per curve edge:
+/// a curve edge's crossing was searched 15-21 times, by two faces and for its own nodes.
+struct EdgePointMemo {
+  std::vector<double> ts;    ///< the parameters, sorted
+  std::vector<int> slot;     ///< per edge: its first row in points, or -1
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> points;  ///< row slot[e] + i: the point at ts[i]
+  const double* find(int e, double t) const {
+    if (slot.empty() || slot[e] < 0) return nullptr;
+    const auto it = std::lower_bound(ts.begin(), ts.end(), t);
+    if (it == ts.end() || *it != t) return nullptr;
+    return &points(slot[e] + (it - ts.begin()), 0);
+  }
+};
+
+/// What a feature edge's placement may consult besides the fits (any may be null).
 struct EdgeContext {
   const LongEdgeResult* long_edge = nullptr;
   const std::vector<int>* planar = nullptr;
   const Features* feat = nullptr;
+  const EdgePointMemo* memo = nullptr;
 };
 
 /// Feature edges at vertex v.
@@ -154,6 +170,8 @@ bool exact_sides(const Mesh& mesh, const Topology& T, const Wedges& W, const std
 ///   edge: with a quarter, scans' elements invalid before repair tripled).
 Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
                                    const CurveFitResult& curves, const EdgeContext& ctx, int e, double t) {
+  if (ctx.memo)
+    if (const double* x = ctx.memo->find(e, t)) return Eigen::Vector3d(x[0], x[1], x[2]);
   const Eigen::Vector3d line = curve_edge_point(mesh, T, curves, e, t);
   const CurveFit &c0 = curves.fits[2 * e], &c1 = curves.fits[2 * e + 1];
   const bool fitted = c0.points > 2 || c1.points > 2;
@@ -263,11 +281,41 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
   const Eigen::VectorXd line = line_reference_nodes(p, d);
   const Eigen::MatrixXd tri = triangle_reference_nodes(p, d);
 
-  const EdgeContext ctx{long_edge, planar, feat};
   std::vector<char> on_curve(ne, 0);
   if (feat && curves)
     for (int e = 0; e < ne; ++e)
       on_curve[e] = !feat->edge_feature.empty() && feat->edge_feature[e] && curves->fits[2 * e].degree >= 0;
+  const EdgeContext direct{long_edge, planar, feat};
+  EdgePointMemo memo;
+  if (curves) {
+    // The parameters asked for: edge nodes, curve_sides_within's quarters, and the face nodes'
+    // side points (curve_side_face_point's t, the side either way round).
+    memo.ts = {0.25, 0.5, 0.75};
+    for (int k = 1; k < p; ++k) memo.ts.push_back(line[k]);
+    for (int k = 0; k < npf; ++k) {
+      const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
+      const Eigen::Vector3d xi(1 - u - v, u, v);
+      for (int j = 0; j < 3; ++j) {
+        const double side = 1 - xi[(j + 2) % 3];
+        if (side > 0) memo.ts.insert(memo.ts.end(), {xi[(j + 1) % 3] / side, xi[j] / side});
+      }
+    }
+    std::sort(memo.ts.begin(), memo.ts.end());
+    memo.ts.erase(std::unique(memo.ts.begin(), memo.ts.end()), memo.ts.end());
+    const int nt = static_cast<int>(memo.ts.size());
+    memo.slot.assign(ne, -1);
+    int rows = 0;
+    for (int e = 0; e < ne; ++e)
+      if (on_curve[e]) memo.slot[e] = rows, rows += nt;
+    memo.points.resize(rows, 3);
+    tbb::parallel_for(tbb::blocked_range<int>(0, ne), [&](const tbb::blocked_range<int>& r) {
+      for (int e = r.begin(); e < r.end(); ++e)
+        for (int i = 0; on_curve[e] && i < nt; ++i)
+          memo.points.row(memo.slot[e] + i) = feature_edge_point(mesh, T, W, fits, *curves, direct, e, memo.ts[i]).transpose();
+    });
+  }
+  EdgeContext ctx = direct;
+  ctx.memo = &memo;
   // Faces on a neighbour's exact surface (face_exact_fits), and the edges they place.
   std::vector<const LocalFit*> face_fit(nf, nullptr);
   if (face_fits) face_fit = *face_fits;
