@@ -158,7 +158,7 @@ struct FitOptions {
   /// where the median of elevated_probes candidates spread over the mesh does not predict its
   /// points better by elevated_gain (leave-one-out residual over degree 4's). Measured medians:
   /// smooth surfaces 0.014-0.2 (bumpy sphere, torus.obj, squashed torus, loft), scans and remeshed
-  /// scans 0.71-1.28 (noise sets their residuals: stanford_bunny_scan fits 2.5 -> 1.3 s).
+  /// scans 0.71-1.28 (noise sets their residuals: stanford_bunny_scan fits 3.07 -> 1.00 s, 2 threads).
   /// Figures: bench/README.md, sessions 37-38.
   int elevated_degree = 6;
   int elevated_feature_rings = 2;
