@@ -1146,11 +1146,12 @@ void elevate_fits(const Mesh& mesh, const Topology& T, const Wedges& W, const Su
     FitScratch& s = scratch.local();
     const int w = candidates[i];
     // Unchecked: no exact surface to look for again on the larger stencil.
+    constexpr double none = std::numeric_limits<double>::infinity();
     s.compare_with_degree_4 = true;
-    s.loo_ratio = 1e300;
+    s.loo_ratio = none;
     LocalFit high = fit_wedge_unchecked(mesh, T, W, w, opt.elevated_degree, support, sstart, sindex, opt, s);
     s.compare_with_degree_4 = false;
-    ratio = high.degree == opt.elevated_degree && s.loo_ratio < 1e300 ? s.loo_ratio : 1e300;
+    ratio = high.degree == opt.elevated_degree && s.loo_ratio < none ? s.loo_ratio : none;  // NaN: none
     return high;
   };
   const auto keep = [&](size_t i, LocalFit&& high, double ratio) {
