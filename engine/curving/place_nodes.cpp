@@ -110,7 +110,7 @@ Eigen::Vector3d surface_crossing(const Mesh& mesh, const Topology& T, const Wedg
     if (!std::isfinite(step)) return start;
     // Hopeless: at the rate of the last `window` steps the tolerance lies well past the budget
     // (surfaces crossing at a small angle, as noisy scans' fits: 30% of boot's searches ran all
-    // 100 steps and returned start, 60% of the placement's time).
+    // 100 steps and returned start, 57% of all the steps taken).
     steps[it % (window + 1)] = step;
     if (it >= 2 * window) {
       const double rate = std::pow(step / steps[(it - window) % (window + 1)], 1.0 / window);
@@ -264,6 +264,40 @@ Eigen::Vector3d curve_side_face_point(const Mesh& mesh, const Topology& T, const
   }
   return blend_projection(mesh, W, fits, f, xi, x);
 }
+/// feature_edge_point of every curve edge (on_curve) at the parameters placement asks for: its
+/// nodes (line), curve_sides_within's quarters, and its faces' nodes' side points (tri's face
+/// nodes; curve_side_face_point's t, the side either way round).
+EdgePointMemo memo_edge_points(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
+                               const CurveFitResult& curves, const EdgeContext& direct,
+                               const std::vector<char>& on_curve, const Eigen::VectorXd& line,
+                               const Eigen::MatrixXd& tri) {
+  EdgePointMemo memo;
+  const int p = static_cast<int>(line.size()) - 1, ne = T.num_edges();
+  memo.ts = {0.25, 0.5, 0.75};
+  for (int k = 1; k < p; ++k) memo.ts.push_back(line[k]);
+  for (Eigen::Index k = 3 * p; k < tri.rows(); ++k) {
+    const double u = tri(k, 0), v = tri(k, 1);
+    const Eigen::Vector3d xi(1 - u - v, u, v);
+    for (int j = 0; j < 3; ++j) {
+      const double side = 1 - xi[(j + 2) % 3];
+      if (side > 0) memo.ts.insert(memo.ts.end(), {xi[(j + 1) % 3] / side, xi[j] / side});
+    }
+  }
+  std::sort(memo.ts.begin(), memo.ts.end());
+  memo.ts.erase(std::unique(memo.ts.begin(), memo.ts.end()), memo.ts.end());
+  const int nt = static_cast<int>(memo.ts.size());
+  memo.slot.assign(ne, -1);
+  int rows = 0;
+  for (int e = 0; e < ne; ++e)
+    if (on_curve[e]) memo.slot[e] = rows, rows += nt;
+  memo.points.resize(rows, 3);
+  tbb::parallel_for(tbb::blocked_range<int>(0, ne), [&](const tbb::blocked_range<int>& r) {
+    for (int e = r.begin(); e < r.end(); ++e)
+      for (int i = 0; on_curve[e] && i < nt; ++i)
+        memo.points.row(memo.slot[e] + i) = feature_edge_point(mesh, T, W, fits, curves, direct, e, memo.ts[i]).transpose();
+  });
+  return memo;
+}
 }  // namespace
 
 PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W,
@@ -286,34 +320,8 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
     for (int e = 0; e < ne; ++e)
       on_curve[e] = !feat->edge_feature.empty() && feat->edge_feature[e] && curves->fits[2 * e].degree >= 0;
   const EdgeContext direct{long_edge, planar, feat};
-  EdgePointMemo memo;
-  if (curves) {
-    // The parameters asked for: edge nodes, curve_sides_within's quarters, and the face nodes'
-    // side points (curve_side_face_point's t, the side either way round).
-    memo.ts = {0.25, 0.5, 0.75};
-    for (int k = 1; k < p; ++k) memo.ts.push_back(line[k]);
-    for (int k = 0; k < npf; ++k) {
-      const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
-      const Eigen::Vector3d xi(1 - u - v, u, v);
-      for (int j = 0; j < 3; ++j) {
-        const double side = 1 - xi[(j + 2) % 3];
-        if (side > 0) memo.ts.insert(memo.ts.end(), {xi[(j + 1) % 3] / side, xi[j] / side});
-      }
-    }
-    std::sort(memo.ts.begin(), memo.ts.end());
-    memo.ts.erase(std::unique(memo.ts.begin(), memo.ts.end()), memo.ts.end());
-    const int nt = static_cast<int>(memo.ts.size());
-    memo.slot.assign(ne, -1);
-    int rows = 0;
-    for (int e = 0; e < ne; ++e)
-      if (on_curve[e]) memo.slot[e] = rows, rows += nt;
-    memo.points.resize(rows, 3);
-    tbb::parallel_for(tbb::blocked_range<int>(0, ne), [&](const tbb::blocked_range<int>& r) {
-      for (int e = r.begin(); e < r.end(); ++e)
-        for (int i = 0; on_curve[e] && i < nt; ++i)
-          memo.points.row(memo.slot[e] + i) = feature_edge_point(mesh, T, W, fits, *curves, direct, e, memo.ts[i]).transpose();
-    });
-  }
+  const EdgePointMemo memo =
+      curves ? memo_edge_points(mesh, T, W, fits, *curves, direct, on_curve, line, tri) : EdgePointMemo{};
   EdgeContext ctx = direct;
   ctx.memo = &memo;
   // Faces on a neighbour's exact surface (face_exact_fits), and the edges they place.
