@@ -471,14 +471,20 @@ void weighted_design(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::V
 }  // namespace
 
 double leave_one_out_residual(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::VectorXd& w,
-                              int lower_degree, double* lower_press) {
+                              int lower_degree, double* lower_press, const FitDesign* design) {
   constexpr double inf = std::numeric_limits<double>::infinity();
   const int ml = lower_press && lower_degree >= 1 && lower_degree < F.degree ? fit_coefficients(lower_degree) : 0;
   if (lower_press) *lower_press = inf;
   if (F.degree < 1 || F.identity) return inf;
   Eigen::MatrixXd A;
   Eigen::VectorXd b;
-  weighted_design(F, P, w, Eigen::MatrixXd(), Eigen::VectorXd(), F.degree, A, b);
+  const int mf = fit_coefficients(F.degree);
+  if (design && design->A.rows() == P.rows() && design->A.cols() >= mf) {
+    A = design->A.leftCols(mf);  // a lower degree's monomials are the leading columns
+    b = design->b;
+  } else {
+    weighted_design(F, P, w, Eigen::MatrixXd(), Eigen::VectorXd(), F.degree, A, b);
+  }
   const int k = static_cast<int>(A.rows()), m = static_cast<int>(A.cols());
   if (k <= m) return inf;
   const Eigen::VectorXd r = b - A * F.c;
@@ -525,7 +531,7 @@ double leave_one_out_residual(const LocalFit& F, const Eigen::MatrixXd& P, const
 LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, double h,
                           const Eigen::MatrixXd& P, const Eigen::VectorXd& w, int degree,
                           const FitOptions& opt, const Eigen::MatrixXd& Q,
-                          const Eigen::VectorXd& wq, bool basic, const FitReference& ref) {
+                          const Eigen::VectorXd& wq, bool basic, const FitReference& ref, FitDesign* design) {
   LocalFit F;
   F.o = o;
   F.n = n;
@@ -547,6 +553,7 @@ LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, do
   Eigen::MatrixXd A;
   Eigen::VectorXd b;
   weighted_design(F, P, w, Q, wq, degree, A, b);
+  if (design) design->A = A, design->b = b;
   // Column scaling once: a column's norm does not depend on how many leading columns a solve
   // keeps. Solves that would include a zero column (nonzero <= j) fail, as rank deficient.
   Eigen::VectorXd scale(mmax);
@@ -677,12 +684,20 @@ double wedge_turn_deg(const Mesh& mesh, const Wedges& W, int w, const Eigen::Vec
 
 namespace {
 
-/// Wedge w's exact quadric as a fit (exact false where it has none), in the frame of its height
-/// fit `fit` (vertex, scale h), the normal turned to the quadric's on the same side.
-LocalFit exact_quadric_fit(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p, const FitOptions& opt,
-                           FitScratch& scratch, const LocalFit& fit) {
-  ExactQuadric Q = wedge_exact_quadric(mesh, T, W, w, opt.exact, scratch.stencil);
-  if (!Q.valid) return LocalFit();
+/// Wedge w's exact quadric (wedge_exact_quadric) or plane (wedge_plane, planes true) as a fit
+/// (exact false where it has none), in the frame of its height fit `fit` (vertex, scale h), the
+/// normal turned to the surface's on the same side. Remembered in scratch.no_exact_surface when
+/// there is none.
+LocalFit exact_fit(const Mesh& mesh, const Topology& T, const Wedges& W, int w, int p, const FitOptions& opt,
+                   FitScratch& scratch, const LocalFit& fit, bool planes) {
+  const char bit = planes ? 2 : 1;
+  char* none = scratch.no_exact_surface ? &(*scratch.no_exact_surface)[w] : nullptr;
+  if (none && (*none & bit)) return LocalFit();
+  ExactQuadric Q = planes ? wedge_plane(mesh, W, w, opt.exact) : wedge_exact_quadric(mesh, T, W, w, opt.exact, scratch.stencil);
+  if (!Q.valid) {
+    if (none) *none |= bit;
+    return LocalFit();
+  }
   return exact_surface_fit(std::make_shared<const ExactQuadric>(std::move(Q)), fit, p);
 }
 
@@ -702,14 +717,14 @@ LocalFit fit_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, int w, 
   // (on finer meshes it fits to rounding too, and the quadric test would only cost time), and
   // on features, whose curves are where two exact sides cross (place_nodes.cpp).
   if (opt.exact_quadrics && p > 1 && (W.one_sided(w) || wedge_turn_deg(mesh, W, w, fit.n) > opt.exact.min_turn_deg)) {
-    LocalFit exact = exact_quadric_fit(mesh, T, W, w, p, opt, scratch, fit);
+    LocalFit exact = exact_fit(mesh, T, W, w, p, opt, scratch, fit, false);
     if (exact.exact && fit_is_sane(mesh, W, w, exact, opt)) return exact;
   }
   // A flat fan is on its plane, wherever its stencil reaches (a plane's first row beside a
   // fillet, whose height fit bends toward the fillet).
   if (opt.exact_quadrics && p > 1) {
-    ExactQuadric Q = wedge_plane(mesh, W, w, opt.exact);
-    if (Q.valid) return exact_surface_fit(std::make_shared<const ExactQuadric>(std::move(Q)), fit, p);
+    LocalFit plane = exact_fit(mesh, T, W, w, p, opt, scratch, fit, true);
+    if (plane.exact) return plane;
   }
   if (fit_is_sane(mesh, W, w, fit, opt)) return fit;
   LocalFit low;
@@ -729,9 +744,10 @@ namespace {
 
 /// Whether the fit over the quadric reference (fq) beats the other one (f) on the same points.
 bool better_quadric(const LocalFit& fq, const LocalFit& f, const Eigen::MatrixXd& P, const Eigen::VectorXd& w,
-                    const FitOptions& opt) {
+                    const FitOptions& opt, const FitDesign& dq, const FitDesign& df) {
   if (!opt.quadric_by_leave_one_out) return fq.residual < opt.quadric_gain * f.residual;
-  return leave_one_out_residual(fq, P, w) < opt.quadric_loo_gain * leave_one_out_residual(f, P, w);
+  return leave_one_out_residual(fq, P, w, 0, nullptr, &dq) <
+         opt.quadric_loo_gain * leave_one_out_residual(f, P, w, 0, nullptr, &df);
 }
 
 }  // namespace
@@ -743,16 +759,17 @@ LocalFit reference_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n0, doub
   Eigen::Vector3d nr = n0;
   FitReference ref = reference_surface(o, n0, P, wt, &nr);
   if (ref.k2 == 0) nr = n0;
-  LocalFit trial = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, ref);
+  FitDesign dt, dq;
+  LocalFit trial = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, ref, &dt);
   if (opt.reference_quadric) {
     // The quadric reference where the data say it fits better (the weighted residual of the
     // whole fit, same points and weights): exact on quadrics, whose curvature varies along
     // the stencil, where the torus is exact only on spheres, cylinders and tori.
     const FitReference qr = quadric_reference(o, nr, P, wt);
     if (qr.quadric_ref && qr.residual < opt.quadric_gain * ref.residual) {
-      LocalFit tq = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr);
+      LocalFit tq = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr, &dq);
       if (tq.degree == p && tq.pivot_ratio >= opt.support_condition &&
-          (trial.degree < p || better_quadric(tq, trial, P, wt, opt))) {
+          (trial.degree < p || better_quadric(tq, trial, P, wt, opt, dq, dt))) {
         trial = std::move(tq);
         ref = qr;
       }
@@ -774,11 +791,13 @@ namespace {
 /// half-disc of data leaves the quadric free on the open side, and there it can bend away.
 LocalFit one_sided_quadric_fit(const Mesh& mesh, const Wedges& W, int w, const Eigen::MatrixXd& P,
                                const Eigen::VectorXd& wt, double h, int p, const FitOptions& opt, LocalFit plane,
-                               bool& gate_refused) {
+                               const FitDesign& plane_design, bool& gate_refused) {
   const FitReference qr = quadric_reference(plane.o, plane.n, P, wt);
   if (!qr.quadric_ref) return plane;
-  LocalFit fq = solve_height_fit(plane.o, plane.n, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr);
-  if (fq.degree != p || fq.pivot_ratio < opt.support_condition || !better_quadric(fq, plane, P, wt, opt)) return plane;
+  FitDesign dq;
+  LocalFit fq = solve_height_fit(plane.o, plane.n, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr, &dq);
+  if (fq.degree != p || fq.pivot_ratio < opt.support_condition || !better_quadric(fq, plane, P, wt, opt, dq, plane_design))
+    return plane;
   for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i) {
     const int f = W.wedge_faces[i];
     const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
@@ -905,10 +924,13 @@ LocalFit fit_wedge_unchecked(const Mesh& mesh, const Topology& T, const Wedges& 
       Eigen::Vector3d n1 = trial.n - trial.c[0] * trial.t1 - trial.c[1] * trial.t2;
       if (n1.norm() > 0 && n1.normalized().dot(n0) > 0.5) {
         n1.normalize();
-        trial = solve_height_fit(o, n1, h, P, wt, p, opt);
+        FitDesign design;
+        trial = solve_height_fit(o, n1, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, FitReference(),
+                                 &design);
         if (one_sided && opt.one_sided_quadric && trial.degree == p && k >= opt.reference_min_points) {
           if (S.rings < opt.max_rings || opt.one_sided_quadric_in_bands)
-            trial = one_sided_quadric_fit(mesh, W, w, P, wt, h, p, opt, std::move(trial), scratch.quadric_gate_refused);
+            trial = one_sided_quadric_fit(mesh, W, w, P, wt, h, p, opt, std::move(trial), design,
+                                          scratch.quadric_gate_refused);
           else
             scratch.quadric_gate_refused = true;
         }
@@ -1068,11 +1090,13 @@ double disagreement(const Mesh& mesh, const Wedges& W, int w, const LocalFit& F,
 /// (where the first pass met one) and over their half disc's torus (reference_fit); the candidate
 /// that agrees best with the two-sided neighbours' fits is kept where it agrees much better than
 /// the wedge's fit. Only one-sided fits change and only two-sided ones are read, so the order
-/// does not matter. gate_refused[w]: the first pass met a gate on wedge w.
+/// does not matter. gate_refused[w]: the first pass met a gate on wedge w. no_exact_surface: the
+/// first pass's memo of exact tests that found nothing (FitScratch).
 long long adopt_agreeing_fits(const Mesh& mesh, const Topology& T, const Wedges& W, int p,
                               const SupportPoints* support, const std::vector<int>& sstart,
                               const std::vector<int>& sindex, const FitOptions& opt,
-                              const std::vector<char>& gate_refused, std::vector<LocalFit>& fits) {
+                              const std::vector<char>& gate_refused, std::vector<char>& no_exact_surface,
+                              std::vector<LocalFit>& fits) {
   if (!opt.one_sided_quadric || !(opt.one_sided_quadric_agreement > 0)) return 0;
   FitOptions open = opt;
   open.one_sided_quadric_gap = std::numeric_limits<double>::infinity();
@@ -1082,6 +1106,7 @@ long long adopt_agreeing_fits(const Mesh& mesh, const Topology& T, const Wedges&
   tbb::enumerable_thread_specific<FitScratch> scratch;
   tbb::parallel_for(tbb::blocked_range<int>(0, nw, 16), [&](const tbb::blocked_range<int>& r) {
     FitScratch& s = scratch.local();
+    s.no_exact_surface = &no_exact_surface;
     for (int w = r.begin(); w < r.end(); ++w) {
       const int d = wedge_degree(W, w, p, opt);
       const bool quadric_candidate = gate_refused[w] && !fits[w].quadric_ref && fits[w].degree == d;
@@ -1199,9 +1224,11 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
   // slot, so the result does not depend on the order.
   const std::vector<int> order = morton_order(mesh, W);
   std::vector<char> gate_refused(nw, 0);
+  std::vector<char> no_exact_surface(nw, 0);  // each wedge's slot written by the task fitting it
   tbb::enumerable_thread_specific<FitScratch> scratch;
   tbb::parallel_for(tbb::blocked_range<int>(0, nw, 64), [&](const tbb::blocked_range<int>& r) {
     FitScratch& s = scratch.local();
+    s.no_exact_surface = &no_exact_surface;
     for (int i = r.begin(); i < r.end(); ++i) {
       const int w = order[i];
       s.quadric_gate_refused = false;
@@ -1221,7 +1248,8 @@ FitResult fit_wedges(const Mesh& mesh, const Topology& T, const Wedges& W, int p
     }
   });
   if (p == 4) elevate_fits(mesh, T, W, support, sstart, sindex, opt, R.fits);
-  R.agreeing_fits = adopt_agreeing_fits(mesh, T, W, p, support, sstart, sindex, opt, gate_refused, R.fits);
+  R.agreeing_fits =
+      adopt_agreeing_fits(mesh, T, W, p, support, sstart, sindex, opt, gate_refused, no_exact_surface, R.fits);
   R.apex_fits = share_apex_fits(T, W, opt, R.fits);
   if (opt.exact_quadrics && p > 1) {
     R.shared_exact_fits = share_exact_fits(mesh, W, opt.exact, R.fits);

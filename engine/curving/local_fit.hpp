@@ -348,26 +348,38 @@ FitReference reference_surface(const Eigen::Vector3d& o, const Eigen::Vector3d& 
 /// Orthonormal tangent pair for a unit normal (fitting.md 2.2).
 void tangent_frame(const Eigen::Vector3d& n, Eigen::Vector3d& t1, Eigen::Vector3d& t2);
 
+/// The weighted least-squares system of a height fit as built (before column scaling): row i is
+/// w_i times the monomials at point i's frame coordinates (u, v) / h, b_i w_i times its height / h.
+/// Kept by a caller that will ask for the fit's leave-one-out residual: the rows' frame
+/// coordinates (a Gauss-Newton projection per point over a quadric) are most of its cost.
+struct FitDesign {
+  Eigen::MatrixXd A;
+  Eigen::VectorXd b;
+};
+
 /// Solves one interpolatory weighted least-squares fit at origin o with normal n, scale h,
 /// to points P (#P x 3) with row weights w, lowering the degree when the system is short,
 /// rank deficient or fails the safeguard. Q/ wq: extra (support) points and row weights.
 /// basic: never lower the degree; minimum-norm solution of the system truncated at the
 /// numerical rank (pivots below opt.support_condition). ref: the reference surface (default:
-/// the tangent plane), e.g. from reference_surface.
+/// the tangent plane), e.g. from reference_surface. design (optional): receives the system's
+/// rows, for leave_one_out_residual.
 LocalFit solve_height_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n, double h,
                           const Eigen::MatrixXd& P, const Eigen::VectorXd& w, int degree,
                           const FitOptions& opt, const Eigen::MatrixXd& Q = Eigen::MatrixXd(),
                           const Eigen::VectorXd& wq = Eigen::VectorXd(), bool basic = false,
-                          const FitReference& ref = FitReference());
+                          const FitReference& ref = FitReference(), FitDesign* design = nullptr);
 
 /// Weighted leave-one-out residual (PRESS) of fit F over the points P (row weights w) it was
 /// fitted to: sqrt(sum (r_i / (1 - h_ii))^2), h_ii the hat matrix diagonal, in units of h. How
 /// well the fit predicts a point it did not see: the in-sample residual of a 14-coefficient fit
 /// to 28 points flatters the more flexible reference. Infinity when a point alone fixes the fit.
 /// lower_press (when lower_degree < F.degree): the same for the least-squares fit of
-/// lower_degree in F's frame and reference, from the same factorization.
+/// lower_degree in F's frame and reference, from the same factorization. design (optional): the
+/// rows solve_height_fit built for F from the same P and w (no support points), not built again.
 double leave_one_out_residual(const LocalFit& F, const Eigen::MatrixXd& P, const Eigen::VectorXd& w,
-                              int lower_degree = 0, double* lower_press = nullptr);
+                              int lower_degree = 0, double* lower_press = nullptr,
+                              const FitDesign* design = nullptr);
 
 /// The fit of points P (row weights w) at o, area-weighted normal n0, over a reference surface:
 /// the osculating torus (reference_surface), or the stencil's quadric where that fits much better
@@ -423,6 +435,10 @@ struct FitScratch {
   /// one's (left alone when the fit is not of the degree asked).
   bool compare_with_degree_4 = false;
   double loo_ratio = 0;
+  /// Per wedge (set by fit_wedges, may be null): bit 1 once wedge_exact_quadric found no surface
+  /// for it, bit 2 once wedge_plane found none. Both depend on the wedge alone, so its refits
+  /// (lower degrees, the agreement pass) skip them.
+  std::vector<char>* no_exact_surface = nullptr;
 };
 
 /// The same without the sanity bound (used by fit_wedge).
