@@ -173,7 +173,7 @@ Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const We
   if (ctx.memo)
     if (const double* x = ctx.memo->find(e, t)) return Eigen::Vector3d(x[0], x[1], x[2]);
   const Eigen::Vector3d line = curve_edge_point(mesh, T, curves, e, t);
-  const CurveFit &c0 = curves.fits[2 * e], &c1 = curves.fits[2 * e + 1];
+  const CurveFit &c0 = curves.at(e, 0), &c1 = curves.at(e, 1);
   const bool fitted = c0.points > 2 || c1.points > 2;
   if (T.edge_faces[e].size() == 2 && exact_sides(mesh, T, W, fits, e)) {
     const Eigen::Vector3d a = mesh.V.row(T.E(e, 0)).transpose(), b = mesh.V.row(T.E(e, 1)).transpose();
@@ -318,7 +318,7 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
   std::vector<char> on_curve(ne, 0);
   if (feat && curves)
     for (int e = 0; e < ne; ++e)
-      on_curve[e] = !feat->edge_feature.empty() && feat->edge_feature[e] && curves->fits[2 * e].degree >= 0;
+      on_curve[e] = !feat->edge_feature.empty() && feat->edge_feature[e] && curves->fitted_edge(e);
   const EdgeContext direct{long_edge, planar, feat};
   const EdgePointMemo memo =
       curves ? memo_edge_points(mesh, T, W, fits, *curves, direct, on_curve, line, tri) : EdgePointMemo{};
