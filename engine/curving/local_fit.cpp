@@ -759,20 +759,21 @@ LocalFit reference_fit(const Eigen::Vector3d& o, const Eigen::Vector3d& n0, doub
   Eigen::Vector3d nr = n0;
   FitReference ref = reference_surface(o, n0, P, wt, &nr);
   if (ref.k2 == 0) nr = n0;
+  // The quadric reference where the data say it fits better (the weighted residual of the
+  // whole fit, same points and weights): exact on quadrics, whose curvature varies along
+  // the stencil, where the torus is exact only on spheres, cylinders and tori. Only then are
+  // the torus fit's rows kept, for the comparison.
+  const FitReference qr = opt.reference_quadric ? quadric_reference(o, nr, P, wt) : FitReference();
+  const bool try_quadric = qr.quadric_ref && qr.residual < opt.quadric_gain * ref.residual;
   FitDesign dt, dq;
-  LocalFit trial = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, ref, &dt);
-  if (opt.reference_quadric) {
-    // The quadric reference where the data say it fits better (the weighted residual of the
-    // whole fit, same points and weights): exact on quadrics, whose curvature varies along
-    // the stencil, where the torus is exact only on spheres, cylinders and tori.
-    const FitReference qr = quadric_reference(o, nr, P, wt);
-    if (qr.quadric_ref && qr.residual < opt.quadric_gain * ref.residual) {
-      LocalFit tq = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr, &dq);
-      if (tq.degree == p && tq.pivot_ratio >= opt.support_condition &&
-          (trial.degree < p || better_quadric(tq, trial, P, wt, opt, dq, dt))) {
-        trial = std::move(tq);
-        ref = qr;
-      }
+  LocalFit trial = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, ref,
+                                    try_quadric ? &dt : nullptr);
+  if (try_quadric) {
+    LocalFit tq = solve_height_fit(o, nr, h, P, wt, p, opt, Eigen::MatrixXd(), Eigen::VectorXd(), false, qr, &dq);
+    if (tq.degree == p && tq.pivot_ratio >= opt.support_condition &&
+        (trial.degree < p || better_quadric(tq, trial, P, wt, opt, dq, dt))) {
+      trial = std::move(tq);
+      ref = qr;
     }
   }
   if ((ref.k2 != 0 || ref.quadric_ref) && (trial.degree < p || trial.pivot_ratio < opt.support_condition)) {
