@@ -4,7 +4,8 @@
 Each shape is built with Gmsh's OpenCASCADE kernel (a cone with its apex, a box with filleted edges,
 a cylinder with a cross hole, a sphere cut by a plane, half a torus; added in session 18, after the
 tangent-junction test was set: a capsule and a cylinder with filleted rims; in session 25 three open surfaces,
-whose rims are boundary curves: a hemisphere, a pipe and a quarter torus), meshed by Gmsh at size h, written
+whose rims are boundary curves: a hemisphere, a pipe and a quarter torus; the lists COARSE, FREEFORM and
+UNSEEN name more, run when named), meshed by Gmsh at size h, written
 as STL, curved by `hocurve curve --order p`, and measured against the exact CAD: the largest distance
 from the element's own Lagrange map, sampled on a degree max(2p, 6) lattice, to the closest of the
 model's surfaces (gmsh.model.getClosestPoint). Also reported: the largest distance per CAD surface
@@ -36,6 +37,10 @@ COARSE = ["tee", "drilledball", "frustum", "ellipsoid"]
 # Session 35: free-form B-spline surfaces (no exact quadric or cyclide holds them): a loft through
 # three unlike sections, and a torus stretched unevenly.
 FREEFORM = ["loft", "squashedtorus"]
+# Session 40: shapes no option was run on before they were added: a vase (a spline profile revolved), a cam
+# (a closed spline extruded: a ruled B-spline side), a twisted prism (a square lofted onto its 45-degree turn), a
+# box with chamfered edges, a plate with holes, spherical caps out of a block, a knob with a rounded end.
+UNSEEN = ["vase", "cam", "twist", "chamferbox", "holeplate", "dome", "knob"]
 # Open surfaces (session 25): the solid's planar faces removed, their rims left as boundary curves.
 OPEN = ["hemisphere", "pipe", "quartertorus"]
 
@@ -83,6 +88,41 @@ def build(gmsh, name):
         occ.addThruSections(wires, makeSolid=True, makeRuled=False)
     elif name == "squashedtorus":  # a torus scaled unevenly (a B-spline surface in OCC)
         occ.dilate([(3, occ.addTorus(0, 0, 0, 1, 0.4))], 0, 0, 0, 1, 0.6, 0.8)
+    elif name == "vase":  # a spline profile revolved about z: a surface of revolution, not a quadric
+        prof = [occ.addPoint(x, 0, z) for x, z in ((0.5, 0), (0.7, 0.4), (0.4, 0.8), (0.5, 1.2))]
+        axis0, axis1 = occ.addPoint(0, 0, 0), occ.addPoint(0, 0, 1.2)
+        loop = occ.addCurveLoop([occ.addLine(axis0, prof[0]), occ.addSpline(prof), occ.addLine(prof[-1], axis1),
+                                 occ.addLine(axis1, axis0)])
+        face = occ.addPlaneSurface([loop])
+        occ.revolve([(2, face)], 0, 0, 0, 0, 0, 1, 2 * np.pi)
+        occ.remove([(2, face)])  # a full turn leaves the profile inside the solid
+    elif name == "cam":  # a closed smooth spline extruded: flat caps, a ruled free-form side
+        t = np.linspace(0, 2 * np.pi, 9)[:-1]
+        r = 0.5 + 0.15 * np.cos(t) + 0.1 * np.sin(2 * t)
+        pts = [occ.addPoint(ri * np.cos(ti), ri * np.sin(ti), 0) for ri, ti in zip(r, t)]
+        curve = occ.addSpline(pts + [pts[0]])
+        occ.extrude([(2, occ.addPlaneSurface([occ.addCurveLoop([curve])]))], 0, 0, 0.6)
+    elif name == "twist":  # a square lofted onto itself turned 45 degrees: twisted B-spline sides, sharp edges
+        wires = []
+        for z, a in ((0, 0), (1, np.pi / 4)):
+            c = [(0.4 * np.cos(a + k * np.pi / 2), 0.4 * np.sin(a + k * np.pi / 2)) for k in range(4)]
+            p = [occ.addPoint(x, y, z) for x, y in c]
+            wires.append(occ.addCurveLoop([occ.addLine(p[k], p[(k + 1) % 4]) for k in range(4)]))
+        occ.addThruSections(wires, makeSolid=True, makeRuled=False)
+    elif name == "holeplate":  # a plate with two holes: at Gmsh's sizes, walls of 5-7 chords, three rows high
+        plate = occ.addBox(0, 0, 0, 2, 1, 0.1)
+        occ.cut([(3, plate)], [(3, occ.addCylinder(x, 0.5, -1, 0, 0, 2, r)) for x, r in ((0.5, 0.12), (1.4, 0.2))])
+    elif name == "dome":  # spherical caps out of a block's faces: concave circles, small caps meshed as fans
+        caps = [occ.addSphere(-0.5, 0, -0.3, 0.35), occ.addSphere(0.4, 0, -0.5, 0.6)]
+        occ.fuse([(3, occ.addBox(-1, -0.5, -0.4, 2, 1, 0.4))], [(3, c) for c in caps])
+    elif name == "knob":  # a cylinder with a hemispherical end on a plate: a tangent circle
+        knob = [occ.addCylinder(0, 0, 0, 0, 0, 0.5, 0.25), occ.addSphere(0, 0, 0.5, 0.25)]
+        occ.fuse([(3, occ.addBox(-1, -1, -0.2, 2, 2, 0.2))], [(3, k) for k in knob])
+    elif name == "chamferbox":  # a box with its 12 edges chamfered: planes only, 45-degree and corner creases
+        box = occ.addBox(0, 0, 0, 1, 0.8, 0.6)
+        occ.synchronize()
+        edges = [t for (_, t) in gmsh.model.getEntities(1)]
+        occ.chamfer([box], edges, [gmsh.model.getAdjacencies(1, e)[0][0] for e in edges], [0.1])
     elif name == "hemisphere":  # boundary: the equator, where the surface is vertical
         sphere = occ.addSphere(0, 0, 0, 1)
         occ.cut([(3, sphere)], [(3, occ.addBox(-2, -2, -2, 4, 4, 2))])

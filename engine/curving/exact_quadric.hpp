@@ -85,6 +85,11 @@ bool plane_pair(const ExactQuadric& Q);
 /// scale, and ~ (stencil / R)^3 on a stencil much smaller than its radius R).
 bool plane_sphere(const ExactQuadric& Q);
 
+/// Q is a sphere, a circular cylinder or a circular cone, to rounding (1e-6 of its largest
+/// curvature): the surfaces a CAD part's holes, bosses and domes are. Points on three coaxial
+/// circles always lie on one quadric of revolution, but on these only where the part is round.
+bool round_primitive(const ExactQuadric& Q);
+
 /// plane_pair or plane_sphere: a product of simpler surfaces, which no single CAD face is.
 bool reducible(const ExactQuadric& Q);
 

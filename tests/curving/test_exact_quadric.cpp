@@ -325,6 +325,34 @@ TEST_CASE("plane_sphere: a plane cap's points and a fillet's far rim lie on a pl
   CHECK(plane_sphere(C));
 }
 
+TEST_CASE("round_primitive: spheres, circular cylinders and cones; not the other quadrics of three circles") {
+  // Points on a surface given by its radius at height z about an oblique axis through (0.3, -0.2, 1).
+  auto revolved = [](auto radius, double squash) {
+    const Eigen::Vector3d axis = Eigen::Vector3d(0.2, 0.1, 1).normalized(), u = axis.unitOrthogonal(),
+                          v = axis.cross(u), o(0.3, -0.2, 1);
+    std::vector<Eigen::Vector3d> pts;
+    for (int i = 0; i < 30; ++i) {
+      const double z = 0.1 + 0.03 * i, a = 0.9 * i, r = radius(z);
+      pts.push_back(o + z * axis + r * std::cos(a) * u + squash * r * std::sin(a) * v);
+    }
+    return fit_exact_quadric(rows(pts));
+  };
+  const auto sphere = [](double z) { return std::sqrt(1 - (z - 0.5) * (z - 0.5)); };
+  const auto cylinder = [](double) { return 0.6; };
+  const auto cone = [](double z) { return 0.2 + 0.5 * z; };
+  const auto hyperboloid = [](double z) { return std::sqrt(0.1 + (z - 0.5) * (z - 0.5)); };
+  const auto paraboloid = [](double z) { return std::sqrt(z); };
+  for (const auto& Q : {revolved(sphere, 1), revolved(cylinder, 1), revolved(cone, 1)}) {
+    REQUIRE(Q.max_residual < 1e-12);
+    CHECK(round_primitive(Q));
+  }
+  for (const auto& Q : {revolved(hyperboloid, 1), revolved(paraboloid, 1), revolved(cylinder, 0.7),
+                        revolved(cone, 0.7), revolved(sphere, 0.7)}) {
+    REQUIRE(Q.max_residual < 1e-12);
+    CHECK(!round_primitive(Q));
+  }
+}
+
 TEST_CASE("a coarse torus curves onto the torus") {
   // 20 x 8 segments, vertices moved along the torus (as a CAD mesher's; a grid's lie on few
   // circles, which determine no cyclide): its edges round the tube turn by about 45 degrees and
