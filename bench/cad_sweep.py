@@ -39,8 +39,11 @@ COARSE = ["tee", "drilledball", "frustum", "ellipsoid"]
 FREEFORM = ["loft", "squashedtorus"]
 # Session 40: shapes no option was run on before they were added: a vase (a spline profile revolved), a cam
 # (a closed spline extruded: a ruled B-spline side), a twisted prism (a square lofted onto its 45-degree turn), a
-# box with chamfered edges, a plate with holes, spherical caps out of a block, a knob with a rounded end.
-UNSEEN = ["vase", "cam", "twist", "chamferbox", "holeplate", "dome", "knob"]
+# box with chamfered edges, a plate with holes, spherical caps out of a block, a knob with a rounded end; then an
+# elbow (two cylinders and a quarter torus), a spherical pocket in a block, a stadium prism, a cone on a
+# cylinder with an oblique hole, an elliptic cylinder.
+UNSEEN = ["vase", "cam", "twist", "chamferbox", "holeplate", "dome", "knob", "elbow", "pocket", "stadium", "conecyl",
+          "ellipcyl"]
 # Open surfaces (session 25): the solid's planar faces removed, their rims left as boundary curves.
 OPEN = ["hemisphere", "pipe", "quartertorus"]
 
@@ -123,6 +126,19 @@ def build(gmsh, name):
         occ.synchronize()
         edges = [t for (_, t) in gmsh.model.getEntities(1)]
         occ.chamfer([box], edges, [gmsh.model.getAdjacencies(1, e)[0][0] for e in edges], [0.1])
+    elif name == "elbow":  # two cylinders joined by a quarter torus: tangent circles
+        quarter = occ.intersect([(3, occ.addTorus(0, 0, 0, 1, 0.3))], [(3, occ.addBox(0, 0, -1, 2, 2, 2))])[0]
+        occ.fuse([(3, occ.addCylinder(1, 0, -1, 0, 0, 1, 0.3))], quarter + [(3, occ.addCylinder(0, 1, 0, -1, 0, 0, 0.3))])
+    elif name == "pocket":  # a spherical pocket cut into a block's top
+        occ.cut([(3, occ.addBox(-1, -1, -0.5, 2, 2, 0.5))], [(3, occ.addSphere(0, 0, 0.3, 0.6))])
+    elif name == "stadium":  # a slot-shaped prism: half cylinders tangent to its flat sides
+        ends = [occ.addCylinder(x, 0, 0, 0, 0, 0.4, 0.3) for x in (-0.5, 0.5)]
+        occ.fuse([(3, occ.addBox(-0.5, -0.3, 0, 1, 0.6, 0.4))], [(3, e) for e in ends])
+    elif name == "conecyl":  # a cone on a cylinder, an oblique hole through both
+        body = occ.fuse([(3, occ.addCylinder(0, 0, 0, 0, 0, 0.6, 0.5))], [(3, occ.addCone(0, 0, 0.6, 0, 0, 0.5, 0.5, 0.1))])
+        occ.cut(body[0], [(3, occ.addCylinder(-1, -0.3, 0.2, 2, 0.6, 0.5, 0.12))])
+    elif name == "ellipcyl":  # a cylinder scaled to semi-axes 0.5, 0.3 (a B-spline surface in OCC)
+        occ.dilate([(3, occ.addCylinder(0, 0, 0, 0, 0, 1, 0.5))], 0, 0, 0, 1, 0.6, 1)
     elif name == "hemisphere":  # boundary: the equator, where the surface is vertical
         sphere = occ.addSphere(0, 0, 0, 1)
         occ.cut([(3, sphere)], [(3, occ.addBox(-2, -2, -2, 4, 4, 2))])

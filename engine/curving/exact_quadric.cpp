@@ -388,12 +388,12 @@ bool region_ends_clearly(const Mesh& mesh, const Topology& T, const ExactQuadric
 }  // namespace
 
 bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std::vector<double>& face_angle,
-                           const ExactQuadricOptions& opt) {
+                           const ExactQuadricOptions& opt, double min_wall_deg) {
   const auto& ef = T.edge_faces[e];
   if (ef.size() != 2) return false;
   // The region: face rings round e, not across edges turning much further than e, nor out of
   // `keep` (when given, per face of `from`).
-  double wall = opt.wall_factor * face_angle[e] + 15.0;
+  double wall = std::max(opt.wall_factor * face_angle[e] + 15.0, min_wall_deg);
   auto grow = [&](const std::vector<char>* keep, const std::vector<int>& from, int rings) {
     std::vector<int> faces(ef.begin(), ef.end());
     for (int step = 0, begin = 0; step < rings; ++step) {
@@ -434,7 +434,7 @@ bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std
   // chords of 51 degrees, rims of 90 (1.5 x 51 + 15 reaches over them into the plate).
   for (int attempt = off_every_cyclide(Q) ? 1 : 0; attempt < 2 && !Q.valid && opt.cyclides; ++attempt) {
     if (attempt == 0) rings += 2;
-    else wall = face_angle[e] + 15.0;
+    else wall = std::max(face_angle[e] + 15.0, min_wall_deg);
     region = grow(nullptr, {}, rings);
     Q = fit_region(mesh, region, {T.E(e, 0), T.E(e, 1)}, opt);
     Q.valid = Q.valid && (Q.cyclide() || (attempt == 1 && round_primitive(Q)));

@@ -170,7 +170,7 @@ bool face_agrees(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuad
 /// each, have their corners on a cylinder too). face_angle: per Topology edge, the dihedral angle in
 /// degrees (0 for boundary edges).
 bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std::vector<double>& face_angle,
-                           const ExactQuadricOptions& opt = {});
+                           const ExactQuadricOptions& opt = {}, double min_wall_deg = 0);
 
 /// Per edge, 1 where candidate[e] and edge_on_exact_quadric (TBB-parallel). Not repeated with
 /// the edges found not on one as walls: a revolved CAD export's profile creases then bounded

@@ -34,7 +34,8 @@ struct JumpScratch {
 CurvatureJump curvature_jump(const Mesh& mesh, const Topology& T, const std::vector<char>& wall, int e,
                              JumpScratch& scratch);
 
-/// FeatureOptions::tangent_junctions: per edge, 1 where it is a junction edge. `wall`: the
+/// FeatureOptions::tangent_junctions: per edge, 1 where it is a junction edge (none inside one
+/// exact quadric, with FeatureOptions::exact_quadrics: edge_on_exact_quadric with walls at angle_deg). `wall`: the
 /// features found so far (not tested, and stencils do not cross them); `theta`: per edge, its
 /// dihedral angle in degrees.
 std::vector<char> tangent_junction_edges(const Mesh& mesh, const Topology& T, const std::vector<char>& wall,
