@@ -128,7 +128,7 @@ def build(gmsh, name):
         occ.chamfer([box], edges, [gmsh.model.getAdjacencies(1, e)[0][0] for e in edges], [0.1])
     elif name == "elbow":  # two cylinders joined by a quarter torus: tangent circles
         quarter = occ.intersect([(3, occ.addTorus(0, 0, 0, 1, 0.3))], [(3, occ.addBox(0, 0, -1, 2, 2, 2))])[0]
-        occ.fuse([(3, occ.addCylinder(1, 0, -1, 0, 0, 1, 0.3))], quarter + [(3, occ.addCylinder(0, 1, 0, -1, 0, 0, 0.3))])
+        occ.fuse([(3, occ.addCylinder(1, 0, 0, 0, -1, 0, 0.3))], quarter + [(3, occ.addCylinder(0, 1, 0, -1, 0, 0, 0.3))])
     elif name == "pocket":  # a spherical pocket cut into a block's top
         occ.cut([(3, occ.addBox(-1, -1, -0.5, 2, 2, 0.5))], [(3, occ.addSphere(0, 0, 0.3, 0.6))])
     elif name == "stadium":  # a slot-shaped prism: half cylinders tangent to its flat sides
