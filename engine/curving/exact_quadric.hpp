@@ -168,7 +168,8 @@ bool face_agrees(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuad
 /// one exact, regular quadric or cyclide whose normals agree with the faces' (ExactQuadricOptions), and
 /// not every face of the region has a coplanar neighbour (a prism's flat sides, two triangles
 /// each, have their corners on a cylinder too). face_angle: per Topology edge, the dihedral angle in
-/// degrees (0 for boundary edges).
+/// degrees (0 for boundary edges). min_wall_deg: the region crosses edges turning by less than this
+/// whatever e's angle (a junction test's edges turn by little, the chords round them by more).
 bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std::vector<double>& face_angle,
                            const ExactQuadricOptions& opt = {}, double min_wall_deg = 0);
 
