@@ -301,8 +301,8 @@ bool plane_sphere(const ExactQuadric& Q) { return Q.cyclide() && std::abs(Q.c[13
 bool reducible(const ExactQuadric& Q) { return plane_pair(Q) || plane_sphere(Q); }
 
 bool determined(const ExactQuadric& Q, double tolerance, const ExactQuadricOptions& opt) {
-  const double miss = (Q.cyclide() ? opt.unique_cyclide : opt.unique) * tolerance;
-  return Q.valid && Q.max_residual <= tolerance && Q.runner_up >= miss && miss <= Q.scale;
+  return Q.valid && Q.max_residual <= tolerance &&
+         Q.runner_up >= (Q.cyclide() ? opt.unique_cyclide : opt.unique) * tolerance;
 }
 
 bool face_agrees(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side) {

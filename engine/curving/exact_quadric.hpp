@@ -157,11 +157,7 @@ struct ExactQuadricOptions {
 
 /// Q is the surface of the points it was fitted to: valid, within `tolerance` of every one, and
 /// determined by them (the next-best fit misses by opt.unique x tolerance, opt.unique_cyclide for
-/// cyclides, whose extra terms fit more point sets), that miss no larger than the points' spread
-/// (Q.scale). Why the last: rounding grows with the distance from the origin, and a float32 part
-/// 300 units out (tolerance 2.5e-4, a thousandth of a stencil) took fits "exact" to it that were
-/// no sphere or torus: Gmsh's sphere, torus and ellipsoid at h = 0.1 went P4 4.7e-4 / 5.1e-4 /
-/// 4.9e-4, where the polynomial fits give 2.4e-5 / 2.3e-5 / 2.7e-5 (at the origin: 4e-8 to 3e-6).
+/// cyclides, whose extra terms fit more point sets).
 bool determined(const ExactQuadric& Q, double tolerance, const ExactQuadricOptions& opt);
 
 /// True when face f's normal is within opt.max_normal_angle_deg of Q's at each of its corners, on
