@@ -50,7 +50,7 @@ def write_stl(path, T, float32):
         f.write("endsolid t\n")
 
 
-def p4_error(gmsh, name, hocurve, stl, out, q=np.eye(3), shift=0.0, order=4):
+def cad_error(gmsh, name, hocurve, stl, out, q=np.eye(3), shift=0.0, order=4):
     """Max distance to the CAD of hocurve's P4 (or `order`) of stl, its nodes x mapped back by (x - shift) q."""
     if os.path.exists(out):
         os.remove(out)
@@ -88,7 +88,7 @@ def main(argv):
         stl = os.path.join(a.out, "%s.stl" % name)
         gmsh.write(stl)
         T = stl_triangles(stl)
-        row = [p4_error(gmsh, name, a.hocurve, stl, os.path.join(a.out, "%s.msh" % name), order=o) for o in (1, 4)]
+        row = [cad_error(gmsh, name, a.hocurve, stl, os.path.join(a.out, "%s.msh" % name), order=o) for o in (1, 4)]
         copies = [(seed, 0.0, False) for seed in seeds] + [(seeds[0], s, True) for s in shifts]
         for seed, shift, float32 in copies:
             rng = np.random.default_rng(seed)
@@ -96,7 +96,7 @@ def main(argv):
             q[:, 0] *= np.sign(np.linalg.det(q))  # a rotation, not a reflection
             moved = os.path.join(a.out, "%s_moved.stl" % name)
             write_stl(moved, (T @ q.T + shift)[rng.permutation(len(T))], float32)
-            row.append(p4_error(gmsh, name, a.hocurve, moved, os.path.join(a.out, "%s_moved.msh" % name), q, shift))
+            row.append(cad_error(gmsh, name, a.hocurve, moved, os.path.join(a.out, "%s_moved.msh" % name), q, shift))
         print("| %s | %g | %s |" % (name, a.size, " | ".join(row)), flush=True)
         gmsh.model.remove()
     return 0
