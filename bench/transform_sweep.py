@@ -33,23 +33,6 @@ def stl_triangles(path):
     return np.array(v).reshape(-1, 3, 3)
 
 
-def write_stl(path, T, float32):
-    """T as a binary float32 STL, or as ASCII with every double's digits."""
-    if float32:
-        a = np.zeros((len(T), 50), np.uint8)
-        a[:, 12:48] = np.frombuffer(T.reshape(-1, 9).astype("<f4").tobytes(), np.uint8).reshape(-1, 36)
-        open(path, "wb").write(bytes(80) + len(T).to_bytes(4, "little") + a.tobytes())
-        return
-    with open(path, "w") as f:
-        f.write("solid t\n")
-        for t in T:
-            f.write("facet normal 0 0 0\nouter loop\n")
-            for x in t:
-                f.write("vertex %.17g %.17g %.17g\n" % tuple(x))
-            f.write("endloop\nendfacet\n")
-        f.write("endsolid t\n")
-
-
 def cad_error(gmsh, name, hocurve, stl, out, q=np.eye(3), shift=0.0, order=4):
     """Max distance to the CAD of hocurve's P4 (or `order`) of stl, its nodes x mapped back by (x - shift) q."""
     if os.path.exists(out):
@@ -95,7 +78,9 @@ def main(argv):
             q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
             q[:, 0] *= np.sign(np.linalg.det(q))  # a rotation, not a reflection
             moved = os.path.join(a.out, "%s_moved.stl" % name)
-            write_stl(moved, (T @ q.T + shift)[rng.permutation(len(T))], float32)
+            P = (T @ q.T + shift)[rng.permutation(len(T))].reshape(-1, 3)
+            write = shapes.write_binary_stl if float32 else shapes.write_ascii_stl
+            write(moved, P, np.arange(len(P)).reshape(-1, 3))
             row.append(cad_error(gmsh, name, a.hocurve, moved, os.path.join(a.out, "%s_moved.msh" % name), q, shift))
         print("| %s | %g | %s |" % (name, a.size, " | ".join(row)), flush=True)
         gmsh.model.remove()
