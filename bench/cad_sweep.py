@@ -16,8 +16,13 @@ REF P4: Gmsh's own P4 of the same triangulation from the exact CAD (setOrder(4))
 --entities: hocurve reads Gmsh's .msh of the same mesh instead, each CAD face an entity, so the
 face borders (tangent ones too, e.g. where a fillet meets a plane) are feature curves.
 
+--algorithm N: Gmsh's 2D mesher (Mesh.Algorithm: 1 MeshAdapt, 5 Delaunay, 6 Frontal-Delaunay, its
+default); --curvature N: sizes from the curvature as well (Mesh.MeshSizeFromCurvature, N elements
+per 2 pi radians), as users of CAD parts often ask. Other meshers than the default leave other
+triangulations of the same shapes: long edges beside short ones, slivers at tangent junctions.
+
 Usage: cad_sweep.py [--hocurve build/hocurve] [--out /tmp/hocurve-sweep] [--sizes 0.1,0.05]
-                    [--orders 1,2,4,6] [--entities] [SHAPE ...]
+                    [--orders 1,2,4,6] [--entities] [--algorithm 6] [--curvature 0] [SHAPE ...]
 """
 import argparse
 import json
@@ -196,6 +201,8 @@ def main(argv):
     ap.add_argument("--orders", default="1,2,4,6")
     ap.add_argument("--entities", action="store_true",
                     help="give hocurve a .msh keeping the CAD faces as entities (their borders are then features) instead of the STL")
+    ap.add_argument("--algorithm", type=int, default=6, help="Gmsh's Mesh.Algorithm (1, 5, 6, ...)")
+    ap.add_argument("--curvature", type=int, default=0, help="Gmsh's Mesh.MeshSizeFromCurvature (0: off)")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     gmsh = shapes.gmsh_init()
@@ -207,6 +214,8 @@ def main(argv):
         for h in (0.0 if x == "default" else float(x) for x in a.sizes.split(",")):
             build(gmsh, name)
             set_size(gmsh, h)
+            gmsh.option.setNumber("Mesh.Algorithm", a.algorithm)
+            gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", a.curvature)
             gmsh.model.mesh.generate(2)
             stl = os.path.join(a.out, "%s_%g.%s" % (name, h, "msh" if a.entities else "stl"))
             gmsh.write(stl)

@@ -14,7 +14,7 @@ bool smooth_surface(const Features& features, const Topology& T, const std::vect
 }
 
 LongEdgeResult long_edges(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
-                          const LongEdgeOptions& opt) {
+                          const LongEdgeOptions& opt, const std::vector<const LocalFit*>* face_fits) {
   LongEdgeResult R;
   R.options = opt;
   const int ne = T.num_edges(), nv = mesh.num_vertices(), nf = mesh.num_faces();
@@ -36,12 +36,16 @@ LongEdgeResult long_edges(const Mesh& mesh, const Topology& T, const Wedges& W, 
     R.edge[e] = length[e] > opt.ratio * median[T.E(e, 0)] || length[e] > opt.ratio * median[T.E(e, 1)];
     R.edges += R.edge[e];
   }
+  auto on_exact_surface = [&](int e) {
+    return face_fits && std::any_of(T.edge_faces[e].begin(), T.edge_faces[e].end(),
+                                    [&](int f) { return (*face_fits)[f] != nullptr; });
+  };
   // The end fits of an edge are its faces' corner fits there (one wedge per side of a feature;
   // edges off the features have the same wedge at each end in both faces).
   for (int f = 0; f < nf; ++f)
     for (int j = 0; j < 3; ++j) {
       const int e = T.FE(f, j);
-      if (!R.edge[e] || R.unreached[e]) continue;
+      if (!R.edge[e] || R.unreached[e] || on_exact_surface(e)) continue;
       const LocalFit &fa = fits[W.corner_wedge(f, j)], &fb = fits[W.corner_wedge(f, (j + 1) % 3)];
       const Eigen::Vector3d a = mesh.V.row(mesh.F(f, j)), b = mesh.V.row(mesh.F(f, (j + 1) % 3)), m = (a + b) / 2;
       const double miss = std::max({(fa.project(b) - b).norm(), (fb.project(a) - a).norm(),

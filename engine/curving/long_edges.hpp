@@ -56,9 +56,12 @@ bool smooth_surface(const Features& features, const Topology& T, const std::vect
 
 /// Flags the long edges of mesh, those whose end fits (the corner fits of W, fits) disagree, and
 /// their faces. A CAD cylinder's one-row side strips are long, but their ruled band refits agree
-/// (the same-size chord normals would flatten the arcs there: 2077x -> 1x).
+/// (the same-size chord normals would flatten the arcs there: 2077x -> 1x). face_fits (per face,
+/// face_exact_fits; may be null): an edge of a face on an exact surface is reached, as that
+/// surface places it (a Delaunay-meshed filleted box's corner sphere had an edge from a tangent
+/// junction, whose fit straddles the junction, placed near its chord: P4 1.1e-2).
 LongEdgeResult long_edges(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
-                          const LongEdgeOptions& opt = {});
+                          const LongEdgeOptions& opt = {}, const std::vector<const LocalFit*>* face_fits = nullptr);
 
 /// Point at barycentric xi of the cubic PN triangle (Vlachos et al. 2001) with corners P.row(j)
 /// and unit normals N.row(j): its edges are the cubic Hermite curves whose end tangents are

@@ -126,8 +126,9 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     LongEdgeOptions long_opt = opt.long_edges;
     R.smooth_surface = smooth_surface(R.features, T, planar, long_opt);
     if (R.smooth_surface) long_opt.ratio = 0;
-    const LongEdgeResult long_edge = p >= 2 ? long_edges(mesh, T, W, R.fits.fits, long_opt) : LongEdgeResult{};
     const std::vector<const LocalFit*> face_fits = face_exact_fits(mesh, T, W, R.fits.fits, fit_opt.exact);
+    const LongEdgeResult long_edge =
+        p >= 2 ? long_edges(mesh, T, W, R.fits.fits, long_opt, &face_fits) : LongEdgeResult{};
     PlacementResult P = place_nodes(mesh, T, W, R.fits.fits, &R.features,
                                     R.curve_fits.fits.empty() ? nullptr : &R.curve_fits, p,
                                     opt.distribution, p >= 2 ? &long_edge : nullptr, &planar, &face_fits);

@@ -497,6 +497,51 @@ TEST_CASE("a box with every edge chamfered stays flat to its float32 input") {
   }
 }
 
+TEST_CASE("a Delaunay-meshed filleted box: long edges on a corner sphere follow it") {
+  // Gmsh's Delaunay mesher (Mesh.Algorithm 5) leaves, at two of the box's corner spheres, an edge
+  // twice as long as those round the tangent junction it starts from, whose fit straddles the
+  // junction: the long-edge rule put it on its PN curve, near the chord (P4 1.1e-2, linear 1.2e-2),
+  // though its faces lie on the sphere the neighbours' exact fits found.
+  const double r = 0.15, L[3] = {1, 0.8, 0.6};
+  Mesh m;
+  {
+    GmshSession gmsh_session;
+    gmsh::model::add("filleted box");
+    const int box = gmsh::model::occ::addBox(0, 0, 0, L[0], L[1], L[2]);
+    gmsh::model::occ::synchronize();
+    gmsh::vectorpair curves_dt, out;
+    gmsh::model::getEntities(curves_dt, 1);
+    std::vector<int> curves;
+    for (const auto& [dim, tag] : curves_dt) curves.push_back(tag);
+    gmsh::model::occ::fillet({box}, curves, {r}, out);
+    gmsh::model::occ::synchronize();
+    gmsh::option::setNumber("Mesh.Algorithm", 5);
+    m = gmsh_surface_mesh(0.1, 0.025);
+  }
+  m.V = m.V.cast<float>().cast<double>();  // as an STL stores it
+  // The surface is the inner box [r, L - r] grown by r.
+  const Dist dist = [&](const Eigen::Vector3d& x) {
+    double inside = INFINITY, outside = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double below = r - x[a], above = x[a] - (L[a] - r);
+      outside += std::pow(std::max({below, above, 0.0}), 2);
+      inside = std::min(inside, -std::max(below, above));
+    }
+    return outside > 0 ? std::abs(std::sqrt(outside) - r) : inside + r;
+  };
+  CurveOptions o;
+  o.order = 1;
+  const double input = surface_error(curve_mesh(m, o).mesh, dist);
+  o.order = 4;
+  const CurveResult R = curve_mesh(m, o);
+  const double p4 = surface_error(R.mesh, dist);
+  MESSAGE(m.num_faces() << " triangles: input " << input << ", P4 " << p4 << ", long edges " << R.long_edges
+                        << ", placed on PN curves " << R.long_edges_placed);
+  CHECK(input > 5e-3);
+  CHECK(p4 < 1e-4);  // Gmsh's own P4 from the CAD: 4.6e-5
+  check_result(m, R);
+}
+
 TEST_CASE("a CAD export's long straight edge between arcs stays straight") {
   // Where a straight side (one long edge) meets an arc of short edges tangentially, no corner
   // stops the rim's curve fits: fitted across the junction they carried the arc's curvature along
