@@ -529,17 +529,11 @@ TEST_CASE("a Delaunay-meshed filleted box: long edges on a corner sphere follow 
     }
     return outside > 0 ? std::abs(std::sqrt(outside) - r) : inside + r;
   };
-  CurveOptions o;
-  o.order = 1;
-  const double input = surface_error(curve_mesh(m, o).mesh, dist);
-  o.order = 4;
-  const CurveResult R = curve_mesh(m, o);
-  const double p4 = surface_error(R.mesh, dist);
-  MESSAGE(m.num_faces() << " triangles: input " << input << ", P4 " << p4 << ", long edges " << R.long_edges
-                        << ", placed on PN curves " << R.long_edges_placed);
-  CHECK(input > 5e-3);
-  CHECK(p4 < 1e-4);  // Gmsh's own P4 from the CAD: 4.6e-5
-  check_result(m, R);
+  const Case c = run("filleted box, Delaunay h = 0.1", m, dist);
+  MESSAGE("long edges " << c.r4.long_edges << ", placed on PN curves " << c.r4.long_edges_placed);
+  CHECK(c.linear > 5e-3);
+  CHECK(c.p4 < 1e-4);  // Gmsh's own P4 from the CAD: 4.6e-5
+  check_result(m, c.r4);
 }
 
 TEST_CASE("a CAD export's long straight edge between arcs stays straight") {
