@@ -379,7 +379,37 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
     R.feature_edges -= pruned;
     chain_all();
   }
-  // --- 5. coarse cone apexes ------------------------------------------------------------------
+  // --- 5. one-edge gaps at the free ends of the creases left ---------------------------------
+  if (kink_test && opt.crease_gap_ratio > 0) {
+    std::vector<int> gap;
+    for (int u = 0; u < nv; ++u) {
+      int last = -1, k = 0;  // u's feature edges: one, sharp, for a crease's free end
+      for (auto [b, end] = T.edges_of(u); b != end; ++b)
+        if (R.edge_feature[*b]) last = *b, ++k;
+      if (k != 1 || !only_sharp[last] ||
+          static_cast<int>(R.curves[R.edge_curve[last]].size()) - 1 < 2 * opt.min_dangling_edges)
+        continue;
+      const Eigen::Vector3d x = mesh.V.row(u).transpose();
+      const Eigen::Vector3d in = x - mesh.V.row(T.other(last, u)).transpose();
+      int best = -1;
+      double best_turn = opt.corner_angle_deg;
+      for (auto [b, end] = T.edges_of(u); b != end; ++b) {
+        const int e = *b, w = T.other(e, u);
+        if (R.edge_feature[e] || T.edge_faces[e].size() != 2 || chord[e] || theta[e] < opt.weak_angle_deg ||
+            theta[e] < opt.crease_gap_ratio * theta[last])
+          continue;
+        int on_curve = 0;  // w's feature edges: two or more, w on another curve
+        for (auto [b2, end2] = T.edges_of(w); b2 != end2; ++b2) on_curve += R.edge_feature[*b2];
+        const double turn = angle_deg(in, mesh.V.row(w).transpose() - x);
+        if (on_curve >= 2 && turn <= best_turn) best = e, best_turn = turn;
+      }
+      if (best >= 0) gap.push_back(best);
+    }
+    for (int e : gap)
+      if (!R.edge_feature[e]) R.edge_feature[e] = 1, ++R.sharp_edges, ++R.gap_edges, ++R.feature_edges;
+    if (!gap.empty()) chain_all();
+  }
+  // --- 6. coarse cone apexes ------------------------------------------------------------------
   // Where a cone's apex has a fan of three to six triangles, its edges turn by 40-140 degrees and
   // read as sharp; so do some edges of the next ring. Sharp edges whose curves stay within the
   // apex_rings of a vertex that is a cone point when the features are ignored, and whose rings

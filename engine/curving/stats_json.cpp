@@ -13,7 +13,7 @@ nlohmann::json stats_json(const CurveResult& r) {
   const Features& F = r.features;
   long long feature_edges = 0;
   for (char c : F.edge_feature) feature_edges += c ? 1 : 0;
-  j["features"] = {{"feature_edges", feature_edges},  {"sharp_edges", F.sharp_edges}, {"kink_edges", F.kink_edges}, {"junction_edges", F.junction_edges},
+  j["features"] = {{"feature_edges", feature_edges},  {"sharp_edges", F.sharp_edges}, {"kink_edges", F.kink_edges}, {"gap_edges", F.gap_edges}, {"junction_edges", F.junction_edges},
                    {"pruned_edges", F.pruned_edges}, {"apex_edges", F.apex_edges}, {"quadric_edges", F.quadric_edges},
                    {"boundary_edges", F.boundary_edges}, {"nonmanifold_edges", F.nonmanifold_edges},
                    {"entity_border_edges", F.entity_border_edges}, {"corners", F.corners}, {"cone_points", F.cone_points},

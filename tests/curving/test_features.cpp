@@ -511,10 +511,11 @@ TEST_CASE("bad options are refused") {
 TEST_CASE("pruning short dangling sharp curves (scanned mesh)") {
   const Mesh m = read_mesh_file(std::string(HOCURVE_SHARED_DIR) + "/meshes/bunny_closed.obj").mesh;
   const Topology T = build_topology(m.F, m.num_vertices());
-  FeatureOptions keep;
+  FeatureOptions keep, prune;
   keep.min_dangling_edges = 0;
+  keep.crease_gap_ratio = prune.crease_gap_ratio = 0;  // pruning alone
   const Features plain = detect_features(m, T, keep);
-  const Features pruned = detect_features(m, T);  // the default prunes curves under 3 edges
+  const Features pruned = detect_features(m, T, prune);  // the default prunes curves under 3 edges
   CHECK(FeatureOptions{}.min_dangling_edges == 3);
   std::printf("bunny_closed: %lld sharp edges, %zu curves; pruning dangling < 3 edges: %lld edges, %zu curves left\n",
               plain.sharp_edges, plain.curves.size(), pruned.feature_edges, pruned.curves.size());

@@ -360,6 +360,50 @@ TEST_CASE("two spherical caps under a block's corner: nodes on their crossing co
   CHECK(worst < 1e-9);
 }
 
+TEST_CASE("a spherical cap meeting a block's sides at 33.6 degrees: its rims are curves to their ends") {
+  // Where the cap's sphere (radius 0.6) meets the sides y = +-0.5 the crease turns by 33.6
+  // degrees, below angle_deg: the kink test found each rim but for its edge at the block's bottom
+  // corner, and that edge stayed a chord of the side's plane (P4 5.1e-4 there, Gmsh's exact-CAD P4
+  // 2.2e-6). Nodes of edges with both ends on a rim must lie on the sphere and on the plane.
+  const Eigen::Vector3d c(0.4, 0, -0.5);
+  const double r = 0.6;
+  Mesh m;
+  {
+    GmshSession gmsh_session;
+    gmsh::model::add("cap");
+    gmsh::vectorpair out;
+    std::vector<gmsh::vectorpair> map;
+    gmsh::model::occ::fuse({{3, gmsh::model::occ::addBox(-1, -0.5, -0.4, 2, 1, 0.4)}},
+                           {{3, gmsh::model::occ::addSphere(c[0], c[1], c[2], r)}}, out, map);
+    gmsh::model::occ::synchronize();
+    m = gmsh_surface_mesh(0.1, 0.025);
+  }
+  auto on_rim = [&](const Eigen::Vector3d& x, double tol) {
+    return std::abs((x - c).norm() - r) <= tol && std::abs(std::abs(x[1]) - 0.5) <= tol;
+  };
+  {
+    CurveOptions o;
+    o.order = 4;
+    const CurveResult R = curve_mesh(m, o);
+    check_result(m, R);
+    const HighOrderMesh& hm = R.mesh;
+    int rim_edges = 0;
+    double worst = 0;
+    for (Eigen::Index e = 0; e < hm.E.rows(); ++e) {
+      if (!on_rim(hm.V.row(hm.E(e, 0)), 1e-12) || !on_rim(hm.V.row(hm.E(e, 1)), 1e-12)) continue;
+      ++rim_edges;
+      for (int k = 0; k < hm.nodes_per_edge(); ++k) {
+        const Eigen::Vector3d q = hm.edge_nodes.row(e * hm.nodes_per_edge() + k);
+        worst = std::max({worst, std::abs((q - c).norm() - r), std::abs(std::abs(q[1]) - 0.5)});
+      }
+    }
+    MESSAGE(rim_edges << " rim edges, nodes off the rim by at most " << worst << " (gap edges "
+                      << R.features.gap_edges << ")");
+    CHECK(rim_edges >= 14);
+    CHECK(worst < 1e-9);  // crease_gap_ratio 0: 1.8e-3
+  }
+}
+
 TEST_CASE("a chamfer one triangle wide under a cylinder: face nodes follow the rim circle") {
   // Unit cylinder on a 45 degree chamfer 0.15 high (a cone), h = 0.35. The rim circles move the
   // edges on them radially, in the cone's tangent plane; the face nodes beside them, placed along
