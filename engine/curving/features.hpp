@@ -108,12 +108,13 @@ struct FeatureOptions {
   /// A crease of sharp edges, at least 2 x min_dangling_edges long, that ends one edge short of
   /// another curve (a vertex with two feature edges or more) is continued through that edge when
   /// it turns by at least weak_angle_deg and crease_gap_ratio x the crease's last edge, leaving the
-  /// crease by at most corner_angle_deg (the edge nearest straight on); 0 turns it off. Scans'
-  /// creases are mostly short fragments: with creases of any length ending near any feature vertex,
-  /// 28 gaps on boot (max deviation from the input 0.306 -> 0.324%); now 3 (unchanged). Why: a rim where a sphere meets a plane at 33.6 degrees (a Gmsh block with
-  /// a spherical cap, h = 0.1) was found by the kink test but for its edge at the box's corner,
-  /// whose stencils the corner's three planes spoil; the fits crossed the gap, and the rim edge there
-  /// stayed a chord of the plane (P4 5.1e-4, Gmsh's exact-CAD P4 2.2e-6).
+  /// crease by at most corner_angle_deg (the edge nearest straight on); 0 turns it off. Why: a rim
+  /// where a sphere meets a plane at 33.6 degrees (a Gmsh block with a spherical cap, h = 0.1) was
+  /// found by the kink test but for its edge at the block's corner, whose stencils the corner's
+  /// three planes spoil; the fits crossed the gap, and that rim edge stayed a chord of the plane
+  /// (P4 5.1e-4, Gmsh's exact-CAD P4 2.2e-6). Scans' creases are mostly short fragments: with
+  /// creases of any length ending near any feature vertex, 28 gaps on boot (max deviation from the
+  /// input 0.306 -> 0.324%); as set, 3 (unchanged).
   double crease_gap_ratio = 0.7;
   /// Sharp edges (above angle_deg, or by the kink test) among vertices on one exact quadric are
   /// chords of a coarse smooth CAD face, not creases (edge_on_exact_quadric).
