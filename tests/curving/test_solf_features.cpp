@@ -324,6 +324,23 @@ TEST_CASE("an elliptic cylinder has no tangent junctions: its curvature varies, 
   check_result(m, c.r4);
 }
 
+namespace {
+
+/// Gmsh's mesh (sizes h down to hmin, default h) of the block [-1, 1] x [-0.5, 0.5] x [-0.4, 0] fused with the
+/// spheres given (centre, radius): spherical caps rising from its faces.
+Mesh block_with_spheres(const std::vector<std::pair<Eigen::Vector3d, double>>& spheres, double h, double hmin = -1) {
+  GmshSession gmsh_session;
+  gmsh::model::add("block with spheres");
+  gmsh::vectorpair tools, out;
+  for (const auto& [c, r] : spheres) tools.push_back({3, gmsh::model::occ::addSphere(c[0], c[1], c[2], r)});
+  std::vector<gmsh::vectorpair> map;
+  gmsh::model::occ::fuse({{3, gmsh::model::occ::addBox(-1, -0.5, -0.4, 2, 1, 0.4)}}, tools, out, map);
+  gmsh::model::occ::synchronize();
+  return gmsh_surface_mesh(h, hmin);
+}
+
+}  // namespace
+
 TEST_CASE("two spherical caps under a block's corner: nodes on their crossing converge there") {
   // The caps' spheres cross at 29 degrees (a concave crease turning by 151) down to the block's
   // bottom face. Alternating projections gain cos^2(29) = 0.77 a step: 115 steps to converge.
@@ -331,19 +348,7 @@ TEST_CASE("two spherical caps under a block's corner: nodes on their crossing co
   // fit, 7.9e-4 off both spheres; now every node is on its CAD face to rounding.
   const Eigen::Vector3d c1(-0.5, 0, -0.3), c2(0.4, 0, -0.5);
   const double r1 = 0.35, r2 = 0.6;
-  Mesh m;
-  {
-    GmshSession gmsh_session;
-    gmsh::model::add("caps");
-    gmsh::vectorpair out;
-    std::vector<gmsh::vectorpair> map;
-    gmsh::model::occ::fuse({{3, gmsh::model::occ::addBox(-1, -0.5, -0.4, 2, 1, 0.4)}},
-                           {{3, gmsh::model::occ::addSphere(c1[0], c1[1], c1[2], r1)},
-                            {3, gmsh::model::occ::addSphere(c2[0], c2[1], c2[2], r2)}},
-                           out, map);
-    gmsh::model::occ::synchronize();
-    m = gmsh_surface_mesh(0.1);
-  }
+  const Mesh m = block_with_spheres({{c1, r1}, {c2, r2}}, 0.1);
   CurveOptions o;
   o.order = 4;
   const CurveResult r = curve_mesh(m, o);
@@ -367,17 +372,7 @@ TEST_CASE("a spherical cap meeting a block's sides at 33.6 degrees: its rims are
   // 2.2e-6). Nodes of edges with both ends on a rim must lie on the sphere and on the plane.
   const Eigen::Vector3d c(0.4, 0, -0.5);
   const double r = 0.6;
-  Mesh m;
-  {
-    GmshSession gmsh_session;
-    gmsh::model::add("cap");
-    gmsh::vectorpair out;
-    std::vector<gmsh::vectorpair> map;
-    gmsh::model::occ::fuse({{3, gmsh::model::occ::addBox(-1, -0.5, -0.4, 2, 1, 0.4)}},
-                           {{3, gmsh::model::occ::addSphere(c[0], c[1], c[2], r)}}, out, map);
-    gmsh::model::occ::synchronize();
-    m = gmsh_surface_mesh(0.1, 0.025);
-  }
+  const Mesh m = block_with_spheres({{c, r}}, 0.1, 0.025);
   auto on_rim = [&](const Eigen::Vector3d& x, double tol) {
     return std::abs((x - c).norm() - r) <= tol && std::abs(std::abs(x[1]) - 0.5) <= tol;
   };
