@@ -34,6 +34,7 @@ const std::vector<OptionSpec> kCurveOptions = {
     {"weld-tolerance", true, "merge vertices closer than this x the bounding-box diagonal (default 1e-9; 0: only exactly equal ones)"},
     {"support", true, "auto (default: when the triangulation is non-uniform) | on | off"},
     {"seed", true, "seed of the random support samples (default 1)"},
+    {"untangle", true, "on (default: folded elements first have their nodes off feature curves moved along the surface) | off (only pulled toward straight)"},
     {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0.01; 0: only invalid ones; e.g. 0.1)"},
     {"progress", false, "print progress as JSON lines on stdout"},
     {"help", false, "show this help", 'h'},
@@ -68,6 +69,7 @@ int run_curve(int argc, char** argv) {
   opt.features.tangent_junctions = a.get_choice("tangent-junctions", "on", {"on", "off"}) == "on";
   opt.features.exact_quadrics = opt.fit.exact_quadrics = a.get_choice("exact-quadrics", "on", {"on", "off"}) == "on";
   opt.long_edges.ratio = a.get_double("long-edge-ratio", opt.long_edges.ratio, 0.0, 1e9);
+  opt.untangle.enabled = a.get_choice("untangle", "on", {"on", "off"}) == "on";
   opt.validity.quality_floor = a.get_double("min-jacobian", opt.validity.quality_floor, 0.0, 0.9);
   const std::string support = a.get_choice("support", "auto", {"auto", "on", "off"});
   opt.use_support = support == "on"    ? Tristate::On

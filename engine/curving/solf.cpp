@@ -8,6 +8,7 @@
 #include "engine/curving/planar_patches.hpp"
 #include "engine/curving/share_exact_fits.hpp"
 #include "engine/curving/stencil.hpp"
+#include "engine/curving/untangle.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -140,6 +141,10 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     R.curve_edges = P.curve_edges;
     R.face_exact_fits = P.face_exact_fits;
     R.placement_seconds = P.seconds;
+    if (opt.repair && p >= 2) {
+      const SurfaceOfFaces surface{&mesh, &W, &R.fits.fits, &planar, &face_fits, &long_edge};
+      R.untangle = untangle_in_surface(T, R.features.edge_feature, surface, opt.validity, R.mesh, opt.untangle);
+    }
   }
 
   progress("validity", 0.85);

@@ -11,6 +11,7 @@
 #include "engine/curving/planar_patches.hpp"
 #include "engine/curving/support_points.hpp"
 #include "engine/curving/uniformity.hpp"
+#include "engine/curving/untangle.hpp"
 #include "engine/highorder/high_order_mesh.hpp"
 #include "engine/highorder/validity.hpp"
 
@@ -34,6 +35,7 @@ struct CurveOptions {
   PlanarPatchOptions planar;                       ///< flat CAD faces keep their nodes on their plane
   LongEdgeOptions long_edges;                      ///< faces with an edge the fits do not reach: PN triangles
   ValidityOptions validity;
+  UntangleOptions untangle;                        ///< before the repair: folded faces' free nodes bent within the surface
   Tristate use_support = Tristate::Auto;
   bool repair = true;                              ///< run repair_validity (else only check)
   /// Called on the calling thread between stages with the stage name and the overall fraction done.
@@ -74,6 +76,7 @@ struct CurveResult {
   long long long_faces = 0;       ///< faces with such an edge: their interior nodes are on their PN triangle
   PlanarPatchResult planar;
   double placement_seconds = 0;
+  UntangleResult untangle;
   ValidityReport validity;
   double validity_seconds = 0;
   Deviation deviation;

@@ -50,6 +50,11 @@ nlohmann::json stats_json(const CurveResult& r) {
                     {"planar_faces", r.planar.faces},
                     {"planar_max_move", r.planar.max_move},
                     {"seconds", r.placement_seconds}};
+  j["untangle"] = {{"targets", r.untangle.targets},
+                   {"patches", r.untangle.patches},
+                   {"kept", r.untangle.kept},
+                   {"cleared", r.untangle.cleared},
+                   {"seconds", r.untangle.seconds}};
   const ValidityReport& V = r.validity;
   j["validity"] = {{"checked", V.checked},
                    {"invalid_before", V.invalid_before},
