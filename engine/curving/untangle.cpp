@@ -243,7 +243,10 @@ UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& e
   for (int f = 0; f < nf; ++f)
     if (!ev[f].valid && !ev[f].degenerate && !surface.frozen(f)) targets.push_back(f);
   R.targets = static_cast<long long>(targets.size());
-  if (targets.empty()) return R;
+  if (targets.empty()) {
+    R.seconds = seconds_since(t0);
+    return R;
+  }
 
   const JacobianBasis B(hm.order);
   const Eigen::MatrixXd ref = triangle_reference_nodes(hm.order, hm.distribution);
