@@ -12,6 +12,8 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <numbers>
+#include <optional>
 
 namespace hocurve {
 
@@ -79,6 +81,10 @@ struct EdgeContext {
   const std::vector<int>* planar = nullptr;
   const Features* feat = nullptr;
   const EdgePointMemo* memo = nullptr;
+  /// Per edge, 1 where it is placed on its faces' exact surfaces' crossing (with face_fit, the
+  /// faces' exact surfaces): such an edge is a curve side of its faces too.
+  const std::vector<char>* crossing = nullptr;
+  const std::vector<const LocalFit*>* face_fit = nullptr;
 };
 
 /// Feature edges at vertex v.
@@ -88,27 +94,25 @@ int feature_valence(const Topology& T, const Features& feat, int v) {
   return n;
 }
 
-/// Where the surface fits of interior edge e's two sides cross the plane normal to its chord
-/// through `anchor`: alternating projections from `start`, at most max_steps (start itself where
-/// they do not converge).
-Eigen::Vector3d surface_crossing(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
-                                 int e, double t, const Eigen::Vector3d& start, const Eigen::Vector3d& anchor,
-                                 int max_steps = 100) {
-  const int f1 = T.edge_faces[e][0], f2 = T.edge_faces[e][1];
-  const Eigen::Vector3d xi1 = edge_barycentric(mesh, T, e, f1, t), xi2 = edge_barycentric(mesh, T, e, f2, t);
-  const Eigen::Vector3d chord = mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0));
-  const double len = chord.norm();
-  const Eigen::Vector3d u = chord / len;
+/// Alternating projections x <- project(x), each step kept in the plane normal to unit u through
+/// `anchor`, from `start` until a step is at most tol; start itself where they do not converge
+/// within max_steps (converged, where given, tells which).
+template <class Project>
+Eigen::Vector3d alternate(const Project& project, const Eigen::Vector3d& start, const Eigen::Vector3d& anchor,
+                          const Eigen::Vector3d& u, double tol, int max_steps, bool* converged = nullptr) {
+  if (converged) *converged = false;
   Eigen::Vector3d x = start;
   constexpr int window = 5;
-  const double tol = 1e-13 * len;
   std::array<double, window + 1> steps{};
   for (int it = 0; it < max_steps; ++it) {
-    Eigen::Vector3d y = blend_projection(mesh, W, fits, f2, xi2, blend_projection(mesh, W, fits, f1, xi1, x));
+    Eigen::Vector3d y = project(x);
     y -= (y - anchor).dot(u) * u;
     const double step = (y - x).norm();
     x = y;
-    if (step <= tol) return x;
+    if (step <= tol) {
+      if (converged) *converged = true;
+      return x;
+    }
     if (!std::isfinite(step)) return start;
     // Hopeless: at the rate of the last `window` steps the tolerance lies well past the budget
     // (surfaces crossing at a small angle, as noisy scans' fits: 30% of boot's searches ran all
@@ -122,6 +126,22 @@ Eigen::Vector3d surface_crossing(const Mesh& mesh, const Topology& T, const Wedg
   return start;
 }
 
+/// Where the surface fits of interior edge e's two sides cross the plane normal to its chord
+/// through `anchor`: alternating projections from `start`, at most max_steps (start itself where
+/// they do not converge).
+Eigen::Vector3d surface_crossing(const Mesh& mesh, const Topology& T, const Wedges& W, const std::vector<LocalFit>& fits,
+                                 int e, double t, const Eigen::Vector3d& start, const Eigen::Vector3d& anchor,
+                                 int max_steps = 100) {
+  const int f1 = T.edge_faces[e][0], f2 = T.edge_faces[e][1];
+  const Eigen::Vector3d xi1 = edge_barycentric(mesh, T, e, f1, t), xi2 = edge_barycentric(mesh, T, e, f2, t);
+  const Eigen::Vector3d chord = mesh.V.row(T.E(e, 1)) - mesh.V.row(T.E(e, 0));
+  const double len = chord.norm();
+  auto project = [&](const Eigen::Vector3d& x) {
+    return blend_projection(mesh, W, fits, f2, xi2, blend_projection(mesh, W, fits, f1, xi1, x));
+  };
+  return alternate(project, start, anchor, chord / len, 1e-13 * len, max_steps);
+}
+
 /// Where along its chord (0..1) a circular arc's point closest to the chord's point at t lies
 /// (the arc's centre, that point and it in line), the arc rising `rise` x half the chord above
 /// its middle: where a projection onto a cylinder or sphere through the arc puts it.
@@ -130,6 +150,36 @@ double arc_chord_fraction(double rise, double t) {
   const double radius = (1 + rise * rise) / (2 * rise), x = 2 * t - 1;  // in half chords
   const double d = std::hypot(x, radius - rise);
   return d > 0 ? 0.5 * (1 + radius * x / d) : t;
+}
+
+/// Point at t of edge e, off the feature curves, whose two faces lie on exact surfaces A and B
+/// (face_exact_fits) that cross at its middle at min_cross_deg or more: where they cross, as a
+/// feature edge between exact sides (feature_edge_point), the plane through the arc's point
+/// nearest the chord's (arc_chord_fraction). Why: a sphere meeting a plane at 33.6 degrees,
+/// below angle_deg, where the kink test missed a rim's end edges (their stencils spoilt by a
+/// block's corner): placed on the plane's fit, such an edge stayed the plane's chord, 7.5e-3 inside
+/// the sphere (curvature-sized dome, P4 1.6e-3). Null where the surfaces are one, or tangent (a
+/// fillet's junction: no crossing to find), or the crossing is not found within a quarter of
+/// the edge's length of its chord.
+std::optional<Eigen::Vector3d> exact_crossing_point(const Mesh& mesh, const Topology& T, int e, const LocalFit& A,
+                                                    const LocalFit& B, double t) {
+  constexpr double min_cross_deg = 15;  // at 15 degrees alternating projections gain 0.93 a step
+  constexpr int max_steps = 400;
+  if (!A.exact || !B.exact || !A.surface || !B.surface) return std::nullopt;
+  const Eigen::Vector3d a = mesh.V.row(T.E(e, 0)).transpose(), b = mesh.V.row(T.E(e, 1)).transpose();
+  const double len = (b - a).norm();
+  const Eigen::Vector3d u = (b - a) / len, middle = 0.5 * (a + b);
+  const Eigen::Vector3d na = A.surface->gradient(middle).normalized(), nb = B.surface->gradient(middle).normalized();
+  if (!(std::abs(na.dot(nb)) <= std::cos(min_cross_deg * std::numbers::pi / 180))) return std::nullopt;
+  auto project = [&](const Eigen::Vector3d& x) { return B.project(A.project(x)); };
+  bool converged = false;
+  const Eigen::Vector3d mid = alternate(project, middle, middle, u, 1e-13 * len, max_steps, &converged);
+  if (!converged) return std::nullopt;
+  const double s = arc_chord_fraction((mid - middle).norm() / (0.5 * len), t);
+  const Eigen::Vector3d line = (1 - s) * a + s * b;
+  const Eigen::Vector3d x = alternate(project, line, line, u, 1e-13 * len, max_steps, &converged);
+  if (!converged || !((x - line).norm() <= 0.25 * len)) return std::nullopt;
+  return x;
 }
 
 /// True when both ends of edge e have exact quadric fits on both its sides (LocalFit::exact): two
@@ -141,7 +191,8 @@ bool exact_sides(const Mesh& mesh, const Topology& T, const Wedges& W, const std
   return true;
 }
 
-/// Point at t of feature edge e: where the surface fits of its two sides cross the plane normal
+/// Point at t of feature edge e (or of an edge on its faces' exact surfaces' crossing, ctx.crossing:
+/// exact_crossing_point): where the surface fits of its two sides cross the plane normal
 /// to the chord at t, found by alternating projections from the curve fit's point (linear
 /// convergence, at cos^2 of the crease angle, >= 35 degrees: 0.67 per step). Why: a curve fit
 /// follows its chain of vertices, but where two surfaces cross in a curve that turns away from
@@ -174,6 +225,12 @@ Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const We
                                    const CurveFitResult& curves, const EdgeContext& ctx, int e, double t) {
   if (ctx.memo)
     if (const double* x = ctx.memo->find(e, t)) return Eigen::Vector3d(x[0], x[1], x[2]);
+  if (ctx.crossing && (*ctx.crossing)[e]) {
+    const Eigen::Vector3d a = mesh.V.row(T.E(e, 0)).transpose(), b = mesh.V.row(T.E(e, 1)).transpose();
+    const std::optional<Eigen::Vector3d> x =
+        exact_crossing_point(mesh, T, e, *(*ctx.face_fit)[T.edge_faces[e][0]], *(*ctx.face_fit)[T.edge_faces[e][1]], t);
+    return x ? *x : Eigen::Vector3d((1 - t) * a + t * b);
+  }
   const Eigen::Vector3d line = curve_edge_point(mesh, T, curves, e, t);
   const CurveFit &c0 = curves.at(e, 0), &c1 = curves.at(e, 1);
   const bool fitted = c0.points > 2 || c1.points > 2;
@@ -202,13 +259,14 @@ Eigen::Vector3d feature_edge_point(const Mesh& mesh, const Topology& T, const We
   return (x - line).norm() <= (fitted ? 1e-3 : 0.05) * len ? x : line;
 }
 
-/// What the curve fit moves feature edge e's point at t beyond face f's surface blend there,
-/// within f's plane (unit normal n).
+/// What the curve fit moves feature edge e's point at t beyond face f's surface blend there (its
+/// exact surface's point, where given), within f's plane (unit normal n).
 Eigen::Vector3d curve_side_shift(const Mesh& mesh, const Topology& T, const Wedges& W,
                                  const std::vector<LocalFit>& fits, const CurveFitResult& curves,
-                                 const EdgeContext& ctx, int e, int f, const Eigen::Vector3d& n, double t) {
+                                 const EdgeContext& ctx, int e, int f, const Eigen::Vector3d& n, double t,
+                                 const LocalFit* surface) {
   const Eigen::Vector3d d = feature_edge_point(mesh, T, W, fits, curves, ctx, e, t) -
-                            blend_point(mesh, W, fits, f, edge_barycentric(mesh, T, e, f, t));
+                            blend_point(mesh, W, fits, f, edge_barycentric(mesh, T, e, f, t), surface);
   return d - d.dot(n) * n;
 }
 
@@ -219,14 +277,15 @@ struct CurveSideBlend {
 };
 
 /// The curve sides of face f whose shift (at a quarter, half and three quarters of the side) stays
-/// within max_shift x the side's length, and those whose two sides have exact fits (exact_sides): the
+/// within max_shift x the side's length, those whose points there lie on the face's exact surface
+/// (surface, may be null), and those whose two sides have exact fits (exact_sides): the
 /// limit keeps scans' noisy curve fits out of the faces, while there the curve is the crossing of two
 /// exact surfaces, or a CAD curve's fit (two cylinders crossed at h = 0.1: shifts of 7.6% of the side,
 /// P4 8.6e-5 -> 2.3e-6).
 std::array<bool, 3> curve_sides_within(const Mesh& mesh, const Topology& T, const Wedges& W,
                                        const std::vector<LocalFit>& fits, const CurveFitResult& curves,
                                        const EdgeContext& ctx, const std::vector<char>& on_curve, int f,
-                                       double max_shift) {
+                                       double max_shift, const LocalFit* surface) {
   const Eigen::Vector3d n = face_normal(mesh, f).normalized();
   std::array<bool, 3> within{};
   for (int j = 0; j < 3; ++j) {
@@ -237,9 +296,12 @@ std::array<bool, 3> curve_sides_within(const Mesh& mesh, const Topology& T, cons
       continue;
     }
     double largest = 0;
-    for (double t : {0.25, 0.5, 0.75})
-      largest = std::max(largest, curve_side_shift(mesh, T, W, fits, curves, ctx, e, f, n, t).norm());
-    within[j] = largest <= max_shift * (mesh.V.row(T.E(e, 0)) - mesh.V.row(T.E(e, 1))).norm();
+    bool on_surface = surface && surface->surface;
+    for (double t : {0.25, 0.5, 0.75}) {
+      largest = std::max(largest, curve_side_shift(mesh, T, W, fits, curves, ctx, e, f, n, t, surface).norm());
+      on_surface = on_surface && surface->surface->contains(feature_edge_point(mesh, T, W, fits, curves, ctx, e, t));
+    }
+    within[j] = on_surface || largest <= max_shift * (mesh.V.row(T.E(e, 0)) - mesh.V.row(T.E(e, 1))).norm();
   }
   return within;
 }
@@ -254,12 +316,13 @@ std::array<bool, 3> curve_sides_within(const Mesh& mesh, const Topology& T, cons
 /// -0.94) or, where still valid, bend the element between its nodes: P4 converged at order 3 along
 /// every such curve. Power 1 spreads the shift as a cone from the opposite corner (not smooth
 /// there); power 3 vanishes to third order at that corner and stays within the P4 polynomials
-/// (bench/README.md, session 26).
+/// (bench/README.md, session 26). surface (may be null): the face's exact surface, which then
+/// takes the place of the blend.
 Eigen::Vector3d curve_side_face_point(const Mesh& mesh, const Topology& T, const Wedges& W,
                                       const std::vector<LocalFit>& fits, const CurveFitResult& curves,
                                       const EdgeContext& ctx, int f, const Eigen::Vector3d& xi,
-                                      const CurveSideBlend& blend) {
-  Eigen::Vector3d x = blend_point(mesh, W, fits, f, xi);
+                                      const CurveSideBlend& blend, const LocalFit* surface) {
+  Eigen::Vector3d x = blend_point(mesh, W, fits, f, xi, surface);
   const Eigen::Vector3d n = face_normal(mesh, f).normalized();
   for (int j = 0; j < 3; ++j) {
     const int e = T.FE(f, j);  // joins corners j and (j + 1) % 3; the opposite corner is (j + 2) % 3
@@ -267,9 +330,9 @@ Eigen::Vector3d curve_side_face_point(const Mesh& mesh, const Topology& T, const
     if (!blend.follow[j] || !(side > 0)) continue;
     const int a = T.E(e, 0) == mesh.F(f, j) ? j : (j + 1) % 3;  // corner at the edge's start
     const double t = xi[(a == j) ? (j + 1) % 3 : j] / side;   // from E(e, 0) to E(e, 1)
-    x += std::pow(side, blend.power) * curve_side_shift(mesh, T, W, fits, curves, ctx, e, f, n, t);
+    x += std::pow(side, blend.power) * curve_side_shift(mesh, T, W, fits, curves, ctx, e, f, n, t, surface);
   }
-  return blend_projection(mesh, W, fits, f, xi, x);
+  return blend_projection(mesh, W, fits, f, xi, x, surface);
 }
 /// feature_edge_point of every curve edge (on_curve) at the parameters placement asks for: its
 /// nodes (line), curve_sides_within's quarters, and its faces' nodes' side points (tri's face
@@ -335,6 +398,7 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
   std::vector<const LocalFit*> face_fit(nf, nullptr);
   if (face_fits) face_fit = *face_fits;
   std::vector<char> edge_on_face_fit(ne, 0);
+  R.crossing.assign(ne, 0);
   auto place_edge = [&](int e, bool blend_only) {
     const int a = T.E(e, 0);
     const int f = T.edge_faces[e].empty() ? -1 : T.edge_faces[e][0];
@@ -347,6 +411,10 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
     // faces are; computed once per edge: conforming).
     const bool pn = long_edge && long_edge->unreached[e];
     edge_on_face_fit[e] = !on_curve[e] && f >= 0 && !pn && surface;
+    // Both faces on exact surfaces: the edge may be where they cross (exact_crossing_point).
+    const bool crosses = !blend_only && edge_on_face_fit[e] && T.edge_faces[e].size() == 2 &&
+                         face_fit[T.edge_faces[e][0]] && face_fit[T.edge_faces[e][1]];
+    R.crossing[e] = 0;
     for (int k = 1; k < p; ++k) {
       const double t = line[k];
       Eigen::Vector3d q;
@@ -354,8 +422,13 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
         q = curves ? feature_edge_point(mesh, T, W, fits, *curves, ctx, e, t)
                    : Eigen::Vector3d((1 - t) * mesh.V.row(a) + t * mesh.V.row(T.E(e, 1)));
       } else {
-        q = pn ? long_face_point(mesh, W, f, edge_barycentric(mesh, T, e, f, t), long_edge->options)
-               : blend_point(mesh, W, fits, g, edge_barycentric(mesh, T, e, g, t), surface);
+        const std::optional<Eigen::Vector3d> crossing =
+            crosses ? exact_crossing_point(mesh, T, e, *surface, *face_fit[T.edge_faces[e][0] == g ? T.edge_faces[e][1] : T.edge_faces[e][0]], t)
+                    : std::nullopt;
+        if (crossing) R.crossing[e] = 1;
+        q = crossing ? *crossing
+            : pn     ? long_face_point(mesh, W, f, edge_barycentric(mesh, T, e, f, t), long_edge->options)
+                     : blend_point(mesh, W, fits, g, edge_barycentric(mesh, T, e, g, t), surface);
       }
       hm.edge_nodes.row(static_cast<Eigen::Index>(e) * npe + k - 1) = q.transpose();
     }
@@ -373,6 +446,11 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
           blend_point(mesh, W, fits, f, Eigen::Vector3d(1 - u - v, u, v), face_fit[f]).transpose();
     }
   };
+  // Curve sides of the faces: feature curves, and edges placed where two exact surfaces cross.
+  std::vector<char> side_curve = on_curve;
+  for (int e = 0; e < ne; ++e) side_curve[e] = side_curve[e] || R.crossing[e];
+  ctx.crossing = &R.crossing;
+  ctx.face_fit = &face_fit;
   if (npf > 0) {
     tbb::parallel_for(tbb::blocked_range<int>(0, nf), [&](const tbb::blocked_range<int>& r) {
       for (int f = r.begin(); f < r.end(); ++f) {
@@ -391,28 +469,31 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
         else
           place_face(f);
         bool curve_side = false;
-        for (int j = 0; j < 3; ++j) curve_side = curve_side || on_curve[T.FE(f, j)];
-        if (pn || !curve_side || face_fit[f]) continue;
+        for (int j = 0; j < 3; ++j) curve_side = curve_side || side_curve[T.FE(f, j)];
+        if (pn || !curve_side) continue;
         // A valid face follows its curve sides smoothly (power 3), those shifted by at most 5% of
         // their length (on scans curve and surface fits disagree by noise: spot, up to 14% of h,
-        // deviation from the input 0.31 -> 0.36% without the limit), unless that takes it below the
-        // floor. A face the plain blend leaves below the floor takes every curve side, smoothly if
+        // deviation from the input 0.31 -> 0.36% without the limit) or on its exact surface, unless
+        // that takes it below the floor. A face on a neighbour's exact surface does so on it: left
+        // there, a sphere's coarse faces beside its rim bent between their nodes (curvature-sized
+        // dome P4 1.1e-4 -> 6.9e-6, Gmsh's exact-CAD P4 2.6e-5). A face the plain blend leaves below the floor takes every curve side, smoothly if
         // that lifts it above the floor, else with power 1 (the spread that frees crowded nodes) if
         // that raises its min J. Why smoothly first: at Gmsh's sizes a tee's saddle curve shifts its
         // sides by up to 17% of their length, and power 1 left its faces valid but bent (P4 2.7e-4;
         // 6.2e-5 with power 3; the cross hole 3.0e-4 -> 3.8e-5).
         const ElementValidity plain = check_element(basis, element_nodes(hm, f), floor);
-        const std::array<bool, 3> all_sides{on_curve[T.FE(f, 0)] != 0, on_curve[T.FE(f, 1)] != 0,
-                                            on_curve[T.FE(f, 2)] != 0};
+        const std::array<bool, 3> all_sides{side_curve[T.FE(f, 0)] != 0, side_curve[T.FE(f, 1)] != 0,
+                                            side_curve[T.FE(f, 2)] != 0};
         const CurveSideBlend smooth{
-            3, plain.valid ? curve_sides_within(mesh, T, W, fits, *curves, ctx, on_curve, f, 0.05) : all_sides};
+            3, plain.valid ? curve_sides_within(mesh, T, W, fits, *curves, ctx, side_curve, f, 0.05, face_fit[f]) : all_sides};
         if (!smooth.follow[0] && !smooth.follow[1] && !smooth.follow[2]) continue;
         const Eigen::MatrixXd kept = hm.face_nodes.middleRows(static_cast<Eigen::Index>(f) * npf, npf);
         auto follow = [&](const CurveSideBlend& blend) {
           for (int k = 0; k < npf; ++k) {
             const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
             hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k) =
-                curve_side_face_point(mesh, T, W, fits, *curves, ctx, f, Eigen::Vector3d(1 - u - v, u, v), blend)
+                curve_side_face_point(mesh, T, W, fits, *curves, ctx, f, Eigen::Vector3d(1 - u - v, u, v), blend,
+                                      face_fit[f])
                     .transpose();
           }
           return check_element(basis, element_nodes(hm, f), floor).min_scaled_jacobian;
@@ -451,6 +532,7 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
   }
   for (int e = 0; e < ne; ++e) {
     R.curve_edges += on_curve[e];
+    R.crossing_edges += R.crossing[e];
     R.long_edges += long_edge && long_edge->unreached[e] && !on_curve[e];
   }
   R.seconds = seconds_since(t0);

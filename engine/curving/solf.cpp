@@ -141,9 +141,13 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     R.curve_edges = P.curve_edges;
     R.face_exact_fits = P.face_exact_fits;
     R.placement_seconds = P.seconds;
+    R.crossing_edges = P.crossing_edges;
     if (opt.repair && p >= 2) {
+      // Edges on two exact surfaces' crossing stay where they are, as feature edges do.
+      std::vector<char> fixed = R.features.edge_feature;
+      for (size_t e = 0; e < fixed.size() && e < P.crossing.size(); ++e) fixed[e] = fixed[e] || P.crossing[e];
       const SurfaceOfFaces surface{&mesh, &W, &R.fits.fits, &planar, &face_fits, &long_edge};
-      R.untangle = untangle_in_surface(T, R.features.edge_feature, surface, opt.validity, R.mesh, opt.untangle);
+      R.untangle = untangle_in_surface(T, fixed, surface, opt.validity, R.mesh, opt.untangle);
     }
   }
 

@@ -70,6 +70,7 @@ struct CurveResult {
   CurveFitResult curve_fits;
   long long curve_edges = 0;
   long long face_exact_fits = 0;  ///< faces placed on a neighbour's exact fit (face_exact_fits)
+  long long crossing_edges = 0;   ///< edges off the feature curves placed where their faces' exact surfaces cross
   bool smooth_surface = false;    ///< too few features and no flat face: the long-edge rule skipped (smooth_surface)
   long long long_edges = 0;       ///< edges much longer than those around their ends (LongEdgeOptions)
   long long long_edges_placed = 0;  ///< of them, whose end fits disagree: placed on a PN curve (off feature curves)

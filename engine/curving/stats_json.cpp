@@ -42,6 +42,7 @@ nlohmann::json stats_json(const CurveResult& r) {
                      {"seconds", r.curve_fits.seconds}};
   j["placement"] = {{"curve_edges", r.curve_edges},
                     {"face_exact_fits", r.face_exact_fits},
+                    {"crossing_edges", r.crossing_edges},
                     {"smooth_surface", r.smooth_surface},
                     {"long_edges", r.long_edges},
                     {"long_edges_placed", r.long_edges_placed},

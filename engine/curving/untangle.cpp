@@ -42,7 +42,7 @@ void set_node(HighOrderMesh& hm, int g, const Eigen::Vector3d& x) {
 
 /// Faces within `rings` rings of seed across non-feature edges shared by two faces, leaving out
 /// `used` and frozen faces; sorted.
-std::vector<int> grow_patch(const Topology& T, const std::vector<char>& edge_feature, const SurfaceOfFaces& S,
+std::vector<int> grow_patch(const Topology& T, const std::vector<char>& fixed_edges, const SurfaceOfFaces& S,
                             int seed, int rings, const std::vector<char>& used) {
   std::vector<int> out{seed}, front{seed};
   for (int r = 0; r < rings; ++r) {
@@ -50,7 +50,7 @@ std::vector<int> grow_patch(const Topology& T, const std::vector<char>& edge_fea
     for (int f : front)
       for (int j = 0; j < 3; ++j) {
         const int e = T.FE(f, j);
-        if (edge_feature[e] || T.edge_faces[e].size() != 2) continue;
+        if (fixed_edges[e] || T.edge_faces[e].size() != 2) continue;
         const int g = T.edge_faces[e][0] == f ? T.edge_faces[e][1] : T.edge_faces[e][0];
         if (used[g] || S.frozen(g) || std::find(out.begin(), out.end(), g) != out.end()) continue;
         out.push_back(g);
@@ -76,7 +76,7 @@ struct PatchNode {
   int local = 0;            ///< its index in the home face's Gmsh order
 };
 
-bool untangle_patch(const HighOrderMesh& hm, const Topology& T, const std::vector<char>& edge_feature,
+bool untangle_patch(const HighOrderMesh& hm, const Topology& T, const std::vector<char>& fixed_edges,
                     const SurfaceOfFaces& S, const std::vector<int>& faces, const UntangleOptions& opt,
                     const Eigen::MatrixXd& ref, const Eigen::MatrixXi& lattice, PatchMove& move) {
   const int p = hm.order, nn = triangle_node_count(p), npe = hm.nodes_per_edge();
@@ -120,7 +120,7 @@ bool untangle_patch(const HighOrderMesh& hm, const Topology& T, const std::vecto
           pn.free = true;
         } else if (g >= nv) {
           const int e = (g - nv) / npe;
-          pn.free = !edge_feature[e] && T.edge_faces[e].size() == 2 && in_patch(T.edge_faces[e][0]) &&
+          pn.free = !fixed_edges[e] && T.edge_faces[e].size() == 2 && in_patch(T.edge_faces[e][0]) &&
                     in_patch(T.edge_faces[e][1]);
         }
         nodes.push_back(pn);
@@ -229,12 +229,12 @@ std::vector<ElementValidity> check_faces(const HighOrderMesh& hm, const Jacobian
 
 }  // namespace
 
-UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& edge_feature,
+UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& fixed_edges,
                                    const SurfaceOfFaces& surface, const ValidityOptions& validity,
                                    HighOrderMesh& hm, const UntangleOptions& opt) {
   const auto t0 = Clock::now();
   UntangleResult R;
-  if (!opt.enabled || hm.order < 2 || edge_feature.size() != static_cast<size_t>(T.num_edges())) return R;
+  if (!opt.enabled || hm.order < 2 || fixed_edges.size() != static_cast<size_t>(T.num_edges())) return R;
   ValidityOptions q = validity;
   q.min_scaled_jacobian = std::max(validity.min_scaled_jacobian, validity.quality_floor);
   std::vector<ElementValidity> ev = check_elements(hm, q);
@@ -260,12 +260,12 @@ UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& e
     long long best_below = -1;
     size_t last_size = 0;
     for (int rings = 1; rings <= opt.max_rings; ++rings) {
-      const std::vector<int> faces = grow_patch(T, edge_feature, surface, t, rings, used);
+      const std::vector<int> faces = grow_patch(T, fixed_edges, surface, t, rings, used);
       if (faces.size() == last_size) break;  // walled in by features: no larger patch
       last_size = faces.size();
       ++R.patches;
       PatchMove move;
-      if (!untangle_patch(hm, T, edge_feature, surface, faces, opt, ref, lattice, move)) continue;
+      if (!untangle_patch(hm, T, fixed_edges, surface, faces, opt, ref, lattice, move)) continue;
       std::vector<Eigen::Vector3d> old(move.nodes.size());
       for (size_t i = 0; i < move.nodes.size(); ++i) {
         old[i] = node_position(hm, move.nodes[i]);

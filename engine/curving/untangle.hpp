@@ -49,10 +49,11 @@ struct SurfaceOfFaces {
 /// validity.min_scaled_jacobian when that is higher) get a patch round them; in the plane of the
 /// patch, each free node (face nodes; nodes of non-feature edges inside the patch) moves by the
 /// harmonic extension (P1 Laplacian on the nodes' lattice, stiffer in smaller faces) of the
-/// in-plane displacement of the fixed nodes (corners, feature edges, the patch's rim) and goes
+/// in-plane displacement of the fixed nodes (corners, fixed edges, the patch's rim) and goes
 /// back onto the surface (surface.point). A patch is kept only when it has fewer faces below the
-/// threshold and no face that cleared it falls below. edge_feature: per Topology edge.
-UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& edge_feature,
+/// threshold and no face that cleared it falls below. fixed_edges: per Topology edge, 1 where its
+/// nodes stay and patches do not grow across (feature curves; edges on exact surfaces' crossings).
+UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& fixed_edges,
                                    const SurfaceOfFaces& surface, const ValidityOptions& validity,
                                    HighOrderMesh& hm, const UntangleOptions& opt = {});
 
