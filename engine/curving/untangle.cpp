@@ -27,19 +27,6 @@ Eigen::Vector3d SurfaceOfFaces::point(int f, const Eigen::Vector3d& xi) const {
 
 namespace {
 
-Eigen::Vector3d node_position(const HighOrderMesh& hm, int g) {
-  const int nv = static_cast<int>(hm.V.rows()), ne = static_cast<int>(hm.edge_nodes.rows());
-  if (g < nv) return hm.V.row(g).transpose();
-  if (g < nv + ne) return hm.edge_nodes.row(g - nv).transpose();
-  return hm.face_nodes.row(g - nv - ne).transpose();
-}
-
-void set_node(HighOrderMesh& hm, int g, const Eigen::Vector3d& x) {
-  const int nv = static_cast<int>(hm.V.rows()), ne = static_cast<int>(hm.edge_nodes.rows());
-  if (g < nv + ne) hm.edge_nodes.row(g - nv) = x.transpose();
-  else hm.face_nodes.row(g - nv - ne) = x.transpose();
-}
-
 /// Faces within `rings` rings of seed across non-feature edges shared by two faces, leaving out
 /// `used` and frozen faces; sorted.
 std::vector<int> grow_patch(const Topology& T, const std::vector<char>& fixed_edges, const SurfaceOfFaces& S,
@@ -269,10 +256,10 @@ UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& f
       std::vector<Eigen::Vector3d> old(move.nodes.size());
       for (size_t i = 0; i < move.nodes.size(); ++i) {
         old[i] = node_position(hm, move.nodes[i]);
-        set_node(hm, move.nodes[i], move.positions[i]);
+        set_node_position(hm, move.nodes[i], move.positions[i]);
       }
       const std::vector<ElementValidity> after = check_faces(hm, B, faces, q);
-      for (size_t i = 0; i < move.nodes.size(); ++i) set_node(hm, move.nodes[i], old[i]);
+      for (size_t i = 0; i < move.nodes.size(); ++i) set_node_position(hm, move.nodes[i], old[i]);
       long long below_before = 0, below_after = 0;
       bool kept_clear = true;
       for (size_t i = 0; i < faces.size(); ++i) {
@@ -289,7 +276,7 @@ UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& f
     }
     used[t] = 1;
     if (best_below < 0) continue;
-    for (size_t i = 0; i < best.nodes.size(); ++i) set_node(hm, best.nodes[i], best.positions[i]);
+    for (size_t i = 0; i < best.nodes.size(); ++i) set_node_position(hm, best.nodes[i], best.positions[i]);
     const std::vector<ElementValidity> after = check_faces(hm, B, best_faces, q);
     for (size_t i = 0; i < best_faces.size(); ++i) {
       const int f = best_faces[i];

@@ -86,24 +86,28 @@ void element_node_indices(const HighOrderMesh& hm, int f, int* out) {
   for (int k = 0; k < npf; ++k) out[n++] = fbase + k;
 }
 
+Eigen::Vector3d node_position(const HighOrderMesh& hm, int g) {
+  const int nv = static_cast<int>(hm.V.rows()), ned = static_cast<int>(hm.edge_nodes.rows());
+  if (g < nv) return hm.V.row(g).transpose();
+  if (g < nv + ned) return hm.edge_nodes.row(g - nv).transpose();
+  return hm.face_nodes.row(g - nv - ned).transpose();
+}
+
+void set_node_position(HighOrderMesh& hm, int g, const Eigen::Vector3d& x) {
+  const int nv = static_cast<int>(hm.V.rows()), ned = static_cast<int>(hm.edge_nodes.rows());
+  if (g < nv) throw UsageError("set_node_position: node " + std::to_string(g) + " is a vertex");
+  if (g < nv + ned) hm.edge_nodes.row(g - nv) = x.transpose();
+  else hm.face_nodes.row(g - nv - ned) = x.transpose();
+}
+
 Eigen::MatrixXd element_nodes(const HighOrderMesh& hm, int f) {
-  const int p = hm.order, npe = p - 1;
-  const int nv = static_cast<int>(hm.V.rows());
-  const int ne = static_cast<int>(hm.E.rows());
+  const int p = hm.order;
   if (p < 1 || p > 10) throw UsageError("element_nodes: order " + std::to_string(p) + " out of range 1..10");
   const int n = triangle_node_count(p);
   int idx[66];  // order <= 10
   element_node_indices(hm, f, idx);
   Eigen::MatrixXd X(n, 3);
-  for (int k = 0; k < n; ++k) {
-    const int g = idx[k];
-    if (g < nv)
-      X.row(k) = hm.V.row(g);
-    else if (g < nv + ne * npe)
-      X.row(k) = hm.edge_nodes.row(g - nv);
-    else
-      X.row(k) = hm.face_nodes.row(g - nv - ne * npe);
-  }
+  for (int k = 0; k < n; ++k) X.row(k) = node_position(hm, idx[k]).transpose();
   return X;
 }
 

@@ -51,6 +51,12 @@ HighOrderMesh make_straight_high_order(const Mesh& mesh, const Topology& T, int 
 /// from E(e,1) to E(e,0).
 void element_node_indices(const HighOrderMesh& hm, int f, int* out);
 
+/// Position of global node g (element_node_indices' numbering).
+Eigen::Vector3d node_position(const HighOrderMesh& hm, int g);
+
+/// Moves global node g, an edge or face node (not a vertex: the input's corners stay).
+void set_node_position(HighOrderMesh& hm, int g, const Eigen::Vector3d& x);
+
 /// Coordinates of face f's nodes in Gmsh order, #nodes x 3.
 Eigen::MatrixXd element_nodes(const HighOrderMesh& hm, int f);
 
