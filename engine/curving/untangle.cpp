@@ -11,6 +11,7 @@
 #include <Eigen/SparseCore>
 
 #include <algorithm>
+#include <limits>
 #include <unordered_map>
 
 namespace hocurve {
