@@ -227,6 +227,33 @@ ExactQuadric fit_tangent_cyclide(const Eigen::MatrixXd& P, const Eigen::MatrixXd
   return fit_tangent<14>(P, X, N);
 }
 
+ExactQuadric fit_exact_sphere(const Eigen::MatrixXd& P) {
+  ExactQuadric Q;
+  if (P.rows() < 6) return Q;
+  const Eigen::MatrixXd Y = centred(P, Q) / Q.scale;
+  if (!(Q.scale > 0)) return Q;
+  // The quadric's monomials with equal squares: |y|^2, y, 1.
+  auto sphere_monomials = [](const Eigen::Vector3d& y) -> Eigen::Matrix<double, 5, 1> {
+    return (Eigen::Matrix<double, 5, 1>() << y.squaredNorm(), y[0], y[1], y[2], 1.0).finished();
+  };
+  Eigen::Matrix<double, 5, 5> M = Eigen::Matrix<double, 5, 5>::Zero();
+  for (Eigen::Index i = 0; i < Y.rows(); ++i)
+    M.selfadjointView<Eigen::Lower>().rankUpdate(sphere_monomials(Y.row(i).transpose()));
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 5, 5>> eig(M.selfadjointView<Eigen::Lower>());
+  if (eig.info() != Eigen::Success) return Q;
+  auto coefficients = [](const Eigen::Matrix<double, 5, 1>& e) -> Coefficients {
+    Coefficients c = Coefficients::Zero();
+    c.head<3>().setConstant(e[0]);
+    c.segment<4>(6) = e.tail<4>();
+    return c / c.norm();
+  };
+  Q.c = coefficients(eig.eigenvectors().col(0));
+  Q.max_residual = max_distance(Y, Q.c, Q.scale);
+  Q.runner_up = max_distance(Y, coefficients(eig.eigenvectors().col(1)), Q.scale);
+  Q.valid = Q.c.allFinite() && std::isfinite(Q.max_residual);
+  return Q;
+}
+
 ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P, double miss_bound) {
   ExactQuadric Q;
   if (P.rows() < 16) return Q;
@@ -321,15 +348,15 @@ namespace {
 /// The quadric, else (opt.cyclides) the cyclide, through the vertices of `faces` (invalid unless
 /// they lie on it within tolerance, it is determined, and it is regular at `ends`: a crease
 /// between two planes lies on their product, singular along it). planes: a plane through them
-/// is taken too.
+/// is taken too. sphere: a sphere only (fit_exact_sphere).
 ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::initializer_list<int> ends,
-                        const ExactQuadricOptions& opt, bool planes = false) {
+                        const ExactQuadricOptions& opt, bool planes = false, bool sphere = false) {
   const std::vector<int> verts = face_corners(mesh, faces.data(), faces.data() + faces.size());
   Eigen::MatrixXd P(verts.size(), 3);
   for (size_t i = 0; i < verts.size(); ++i) P.row(i) = mesh.V.row(verts[i]);
   const double tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
-  ExactQuadric Q = fit_exact_quadric(P, planes, tolerance);
-  if (!determined(Q, tolerance, opt) && opt.cyclides) Q = fit_exact_cyclide(P, tolerance);
+  ExactQuadric Q = sphere ? fit_exact_sphere(P) : fit_exact_quadric(P, planes, tolerance);
+  if (!sphere && !determined(Q, tolerance, opt) && opt.cyclides) Q = fit_exact_cyclide(P, tolerance);
   Q.tolerance = tolerance;
   Q.valid = determined(Q, tolerance, opt) && !reducible(Q);
   double largest = 0;
@@ -337,6 +364,33 @@ ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::in
   for (int v : ends)
     if (!(Q.gradient(mesh.V.row(v).transpose()).norm() >= opt.min_gradient_ratio * largest)) Q.valid = false;
   return Q;
+}
+
+/// Largest distance between two corners of `faces`.
+double fan_size(const Mesh& mesh, const std::vector<int>& faces) {
+  const std::vector<int> verts = face_corners(mesh, faces.data(), faces.data() + faces.size());
+  double size = 0;
+  for (size_t i = 0; i < verts.size(); ++i)
+    for (size_t j = 0; j < i; ++j) size = std::max(size, (mesh.V.row(verts[i]) - mesh.V.row(verts[j])).norm());
+  return size;
+}
+
+/// v is an inner vertex: as many edges as faces round it (none on the boundary).
+bool closed_fan(const Topology& T, int v) {
+  const auto [fb, fe] = T.faces_of(v);
+  const auto [eb, ee] = T.edges_of(v);
+  return fe - fb == ee - eb;
+}
+
+/// Two faces of `faces` sharing an edge are coplanar (within 0.5 degrees).
+bool has_coplanar_pair(const Mesh& mesh, const Topology& T, const std::vector<int>& faces) {
+  for (int f : faces)
+    for (int j = 0; j < 3; ++j)
+      for (int g : T.edge_faces[T.FE(f, j)])
+        if (g > f && std::find(faces.begin(), faces.end(), g) != faces.end() &&
+            face_normal(mesh, f).normalized().dot(face_normal(mesh, g).normalized()) > std::cos(0.5 * std::numbers::pi / 180))
+          return true;
+  return false;
 }
 
 /// Q is a cyclide that misses some of its points: they lie on no cyclide, nor do more points
@@ -386,6 +440,19 @@ bool region_ends_clearly(const Mesh& mesh, const Topology& T, const ExactQuadric
 }
 
 }  // namespace
+
+ExactQuadric fan_sphere(const Mesh& mesh, const Topology& T, int v, const ExactQuadricOptions& opt) {
+  ExactQuadric Q;
+  if (!closed_fan(T, v)) return Q;
+  const auto [b, e] = T.faces_of(v);
+  const std::vector<int> fan(b, e);
+  // Adjacent faces of a sphere are never coplanar; a cylinder's flat cap of two or more triangles
+  // with no inner vertex has all its corners on its two rims, so on a sphere.
+  if (has_coplanar_pair(mesh, T, fan)) return Q;
+  Q = fit_region(mesh, fan, {v}, opt, false, true);
+  Q.valid = Q.valid && Q.tolerance <= opt.fan_sphere_precision * fan_size(mesh, fan) && all_agree(agreeing(mesh, Q, fan, opt));
+  return Q;
+}
 
 bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std::vector<double>& face_angle,
                            const ExactQuadricOptions& opt, double min_wall_deg) {
@@ -439,7 +506,9 @@ bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std
     Q = fit_region(mesh, region, {T.E(e, 0), T.E(e, 1)}, opt);
     Q.valid = Q.valid && (Q.cyclide() || (attempt == 1 && round_primitive(Q)));
   }
-  if (!Q.valid) return false;
+  // Else e may lie in the closed fan of an end on a sphere: a coarse dome's chords, whose regions
+  // reach over a tangent junction.
+  if (!Q.valid) return fan_sphere(mesh, T, T.E(e, 0), opt).valid || fan_sphere(mesh, T, T.E(e, 1), opt).valid;
   const std::vector<char> agree = agreeing(mesh, Q, region, opt);
   if (!agree[0] || !agree[1]) return false;
   if (all_agree(agree)) return true;
@@ -504,6 +573,14 @@ ExactQuadric wedge_exact_quadric(const Mesh& mesh, const Topology& T, const Wedg
                   (!Q.cyclide() && region_ends_clearly(mesh, T, Q, W.wedge_vertex[w], opt, scratch));
       else if (C.valid && C.cyclide()) Q = C;
     }
+  }
+  // A closed fan round a smooth vertex that no quadric holds with its neighbours (a coarse cap's
+  // apex inside a shallow crease or a tangent junction): its own sphere. A one-sided fan's corners
+  // may lie on two rims, which lie on a sphere even where the face between them is a cylinder.
+  const int v = W.wedge_vertex[w];
+  if (!Q.valid && !W.one_sided(w) && !W.is_cone(v)) {
+    ExactQuadric F = fan_sphere(mesh, T, v, opt);
+    if (F.valid) Q = std::move(F);
   }
   return Q;
 }

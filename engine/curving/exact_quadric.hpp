@@ -57,6 +57,12 @@ struct ExactQuadric {
 ExactQuadric fit_exact_quadric(const Eigen::MatrixXd& P, bool planes = false,
                                double miss_bound = std::numeric_limits<double>::infinity());
 
+/// The least-squares sphere (or plane) through the points (rows of P, at least 6), as
+/// fit_exact_quadric on the monomials |y|^2, y, 1; the runner-up is the next sphere. Why: a coarse
+/// cap (a fan of 6-8 triangles) has too few points for a quadric, and its circle and apex lie on
+/// many (a sphere, paraboloids, a cone), of which the sphere is the CAD face.
+ExactQuadric fit_exact_sphere(const Eigen::MatrixXd& P);
+
 /// The same for Darboux cyclides (at least 16 points). Points on a sphere or a plane lie on
 /// many cyclides (the sphere times any sphere), so try the quadric first.
 ExactQuadric fit_exact_cyclide(const Eigen::MatrixXd& P, double miss_bound = std::numeric_limits<double>::infinity());
@@ -150,6 +156,11 @@ struct ExactQuadricOptions {
   /// The quadric's gradient at the edge's ends at least this x its largest in the region: a
   /// crease between two planes lies on their product, singular along the crease.
   double min_gradient_ratio = 0.1;
+  /// A closed fan's sphere (fan_sphere) needs the tolerance within this x the fan's size: its 6-8
+  /// corners are only 2-4 more than a sphere's unknowns, and at a text file's six digits scans'
+  /// fans lay on spheres (tolerance / size 2e-4 to 1e-3: spot, boot, armadillo, both bunnies).
+  /// A float32 CAD mesh's coarse caps: 1.5e-7; T20's (coordinates ~160): 1.1e-5.
+  double fan_sphere_precision = 2e-5;
   /// Where the points lie on no quadric, try a Darboux cyclide: a torus is one, and CAD fillets
   /// and rounded rims are tori. A wedge fits it on its confirm_points stencil (13 unknowns).
   bool cyclides = true;
@@ -167,11 +178,20 @@ bool face_agrees(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuad
 /// True when interior edge e (dihedral angle theta, degrees) lies inside a region of vertices on
 /// one exact, regular quadric or cyclide whose normals agree with the faces' (ExactQuadricOptions), and
 /// not every face of the region has a coplanar neighbour (a prism's flat sides, two triangles
-/// each, have their corners on a cylinder too). face_angle: per Topology edge, the dihedral angle in
+/// each, have their corners on a cylinder too). Else, when the closed fan of one of its ends has a
+/// sphere (fan_sphere). face_angle: per Topology edge, the dihedral angle in
 /// degrees (0 for boundary edges). min_wall_deg: the region crosses edges turning by less than this
 /// whatever e's angle (a junction test's edges turn by little, the chords round them by more).
 bool edge_on_exact_quadric(const Mesh& mesh, const Topology& T, int e, const std::vector<double>& face_angle,
                            const ExactQuadricOptions& opt = {}, double min_wall_deg = 0);
+
+/// The sphere of the closed fan round vertex v (valid false if none, or v on the boundary): its corners
+/// on one to the tolerance and determining it (fit_exact_sphere; 6 corners at least), the
+/// tolerance within opt.fan_sphere_precision x the fan's size, regular at v, no two adjacent faces
+/// coplanar, every face's normal along it. Why a fan: a coarse cap's apex (a fan of 6-8
+/// triangles, inside a shallow crease or a tangent junction) has too few points for a quadric, and
+/// its circle and apex lie on many (paraboloids, a cone), of which the sphere is the CAD face.
+ExactQuadric fan_sphere(const Mesh& mesh, const Topology& T, int v, const ExactQuadricOptions& opt);
 
 /// Per edge, 1 where candidate[e] and edge_on_exact_quadric (TBB-parallel). Not repeated with
 /// the edges found not on one as walls: a revolved CAD export's profile creases then bounded
@@ -187,7 +207,9 @@ ExactQuadric wedge_plane(const Mesh& mesh, const Wedges& W, int w, const ExactQu
 /// The exact quadric or plane of wedge w (valid false if none): through the vertices of its stencil (not
 /// across features; grown until it holds wedge_points, then confirmed on confirm_points), regular
 /// at its vertex, every stencil face's normal agreeing with it. Else its cyclide, on either
-/// stencil (on the larger where the smaller has too few points or does not determine it).
+/// stencil (on the larger where the smaller has too few points or does not determine it). Else,
+/// for a wedge that is its vertex's whole closed fan (no feature through it, no cone point), the fan's
+/// sphere (fan_sphere).
 ExactQuadric wedge_exact_quadric(const Mesh& mesh, const Topology& T, const Wedges& W, int w,
                                  const ExactQuadricOptions& opt, StencilScratch& scratch);
 

@@ -1,6 +1,7 @@
 #include "engine/curving/place_nodes.hpp"
 
 #include "engine/core/stopwatch.hpp"
+#include "engine/curving/share_exact_fits.hpp"
 #include "engine/highorder/validity.hpp"
 
 #include <Eigen/Geometry>
@@ -60,6 +61,21 @@ Eigen::Vector3d edge_barycentric(const Mesh& mesh, const Topology& T, int e, int
 }
 
 namespace {
+/// Edge e's two faces lie on one exact surface: each face's exact surface (face_fit) holds the
+/// other face too (face_on). Then e is a chord of it, though the features took it for a crease:
+/// the kink test's false creases where a coarse cylinder meets a torus at a tangent junction
+/// (the elbow at Gmsh's size: a curve fit 3.4e-2 off the cylinder).
+bool chord_of_one_surface(const Mesh& mesh, const Topology& T, const std::vector<const LocalFit*>& face_fit, int e) {
+  if (T.edge_faces[e].size() != 2) return false;
+  const int f = T.edge_faces[e][0], g = T.edge_faces[e][1];
+  const LocalFit *A = face_fit[f], *B = face_fit[g];
+  if (!A || !B || !A->surface || !B->surface) return false;
+  const ExactQuadricOptions opt;
+  double side_a = 0, side_b = 0;
+  return face_on(mesh, f, *A->surface, opt, side_a) && face_on(mesh, g, *A->surface, opt, side_a) &&
+         face_on(mesh, g, *B->surface, opt, side_b) && face_on(mesh, f, *B->surface, opt, side_b);
+}
+
 /// Feature edge points at the parameters the placement asks for again and again (edge nodes,
 /// curve_sides_within's quarters, face nodes' side points), each computed once per curve edge:
 /// a curve edge's crossing was searched 15-21 times, by two faces and for its own nodes.
@@ -385,18 +401,19 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
   const Eigen::VectorXd line = line_reference_nodes(p, d);
   const Eigen::MatrixXd tri = triangle_reference_nodes(p, d);
 
+  // Faces on a neighbour's exact surface (face_exact_fits), and the edges they place.
+  std::vector<const LocalFit*> face_fit(nf, nullptr);
+  if (face_fits) face_fit = *face_fits;
   std::vector<char> on_curve(ne, 0);
   if (feat && curves)
     for (int e = 0; e < ne; ++e)
-      on_curve[e] = !feat->edge_feature.empty() && feat->edge_feature[e] && curves->fitted_edge(e);
+      on_curve[e] = !feat->edge_feature.empty() && feat->edge_feature[e] && curves->fitted_edge(e) &&
+                    !chord_of_one_surface(mesh, T, face_fit, e);
   const EdgeContext direct{long_edge, planar, feat};
   const EdgePointMemo memo =
       curves ? memo_edge_points(mesh, T, W, fits, *curves, direct, on_curve, line, tri) : EdgePointMemo{};
   EdgeContext ctx = direct;
   ctx.memo = &memo;
-  // Faces on a neighbour's exact surface (face_exact_fits), and the edges they place.
-  std::vector<const LocalFit*> face_fit(nf, nullptr);
-  if (face_fits) face_fit = *face_fits;
   std::vector<char> edge_on_face_fit(ne, 0);
   R.crossing.assign(ne, 0);
   auto place_edge = [&](int e, bool blend_only) {

@@ -325,6 +325,44 @@ TEST_CASE("plane_sphere: a plane cap's points and a fillet's far rim lie on a pl
   CHECK(plane_sphere(C));
 }
 
+TEST_CASE("fit_exact_sphere and fan_sphere: a coarse cap's fan lies on its sphere, a two-ring cylinder's do not") {
+  // A cap of 7 triangles round its apex: a circle and a point, which lie on one sphere but also on
+  // paraboloids and a cone; the sphere is the CAD face.
+  const Eigen::Vector3d c(0.3, -0.2, 0.1);
+  const double R = 0.7, polar = 0.6;
+  std::vector<Eigen::Vector3d> V{c + Eigen::Vector3d(0, 0, R)};
+  for (int j = 0; j < 7; ++j) {
+    const double a = 2 * pi * j / 7 + 0.2;
+    V.push_back(c + R * Eigen::Vector3d(std::sin(polar) * std::cos(a), std::sin(polar) * std::sin(a), std::cos(polar)));
+  }
+  const ExactQuadric S = fit_exact_sphere(rows(V));
+  CHECK(S.valid);
+  CHECK(S.max_residual < 1e-12);
+  CHECK(S.runner_up > 1e-3);
+  const Eigen::Vector3d x = c + R * Eigen::Vector3d(0.3, -0.5, 0.8).normalized();
+  CHECK((S.project(x + 0.02 * (x - c).normalized()) - x).norm() < 1e-9);
+  // The circle alone lies on a plane and on every sphere through it.
+  CHECK(fit_exact_sphere(rows(std::vector<Eigen::Vector3d>(V.begin() + 1, V.end()))).runner_up < 1e-10);
+  std::vector<std::array<int, 3>> F;
+  for (int j = 0; j < 7; ++j) F.push_back({0, 1 + j, 1 + (j + 1) % 7});
+  const Mesh cap = from_faces(V, F);
+  const Topology T = build_topology(cap.F, cap.num_vertices());
+  CHECK(fan_sphere(cap, T, 0, ExactQuadricOptions{}).valid);
+  CHECK(!fan_sphere(cap, T, 1, ExactQuadricOptions{}).valid);  // the rim: no closed fan
+  // A cylinder five vertices round, two rings, caps without a centre: every vertex's closed fan
+  // has its corners on both rims, so on a sphere; its flat caps' coplanar triangles rule it out.
+  const Mesh cyl = ring_cylinder(5, 1, 0.25, 0.5, 0.5, false);
+  const Topology C = build_topology(cyl.F, cyl.num_vertices());
+  const ExactQuadric all = fit_exact_sphere(cyl.V);
+  CHECK(all.max_residual < 1e-12);
+  CHECK(all.runner_up > 1e-3);
+  for (int v = 0; v < cyl.num_vertices(); ++v) CHECK(!fan_sphere(cyl, C, v, ExactQuadricOptions{}).valid);
+  // Nor where the tolerance is coarse for the fan (a text file's six digits, spot's eyes).
+  ExactQuadricOptions coarse;
+  coarse.rounding = 5e-6;
+  CHECK(!fan_sphere(cap, T, 0, coarse).valid);
+}
+
 TEST_CASE("round_primitive: spheres, circular cylinders and cones; not the other quadrics of three circles") {
   // Points on a surface given by its radius at height z about an oblique axis through (0.3, -0.2, 1).
   auto revolved = [](auto radius, double squash) {

@@ -444,6 +444,56 @@ TEST_CASE("a spherical cap meeting a block's sides, sized by curvature: rim edge
   CHECK(p4 < 3e-5);
 }
 
+TEST_CASE("coarse caps at Gmsh's own sizes: a fan of 7 inside a shallow crease, a hemisphere on a cylinder") {
+  // At Gmsh's own size the small cap of the block (sphere r = 0.35 rising 0.05 out of its top,
+  // meeting it at 31 degrees: no crease) is a fan of 7 triangles, 8 points: too few for a quadric,
+  // and a circle and its apex lie on many. The fan's own sphere (fan_sphere) holds it, and the
+  // rim edges, on the plane's and the sphere's faces, go on their crossing. Before: the cap stayed
+  // flat (P4 1.28e-2 = linear; Gmsh's exact-CAD P4 1.9e-4).
+  const Eigen::Vector3d c1(-0.5, 0, -0.3), c2(0.4, 0, -0.5);
+  const double r1 = 0.35, r2 = 0.6;
+  {
+    const Mesh m = block_with_spheres({{c1, r1}, {c2, r2}}, 1e22, 1e-9);
+    const Dist dist = [&](const Eigen::Vector3d& x) {
+      return std::min({std::abs((x - c1).norm() - r1), std::abs((x - c2).norm() - r2), std::abs(x[0] + 1),
+                       std::abs(x[0] - 1), std::abs(x[1] + 0.5), std::abs(x[1] - 0.5), std::abs(x[2] + 0.4),
+                       std::abs(x[2])});
+    };
+    const Case c = run("block with caps, Gmsh's size", m, dist);
+    check_result(m, c.r4);
+    CHECK(c.p4 < 3e-4);
+    CHECK(c.linear > 100 * c.p4);
+  }
+  // A cylinder (r = 0.25) with a hemispherical end on a plate: the hemisphere is 11 vertices, its
+  // chords turn by 36-50 degrees (creases by the angle) and the fans of its upper vertices lie on
+  // the sphere; the cylinder is two rings. Before: P4 3.2e-2 (linear 3.2e-2; Gmsh's exact CAD 2.0e-4).
+  {
+    Mesh m;
+    {
+      GmshSession gmsh_session;
+      gmsh::model::add("knob");
+      gmsh::vectorpair out;
+      std::vector<gmsh::vectorpair> map;
+      gmsh::model::occ::fuse({{3, gmsh::model::occ::addBox(-1, -1, -0.2, 2, 2, 0.2)}},
+                             {{3, gmsh::model::occ::addCylinder(0, 0, 0, 0, 0, 0.5, 0.25)},
+                              {3, gmsh::model::occ::addSphere(0, 0, 0.5, 0.25)}},
+                             out, map);
+      gmsh::model::occ::synchronize();
+      m = gmsh_surface_mesh(1e22, 1e-9);
+    }
+    const Dist dist = [&](const Eigen::Vector3d& x) {
+      const double top = x[2] > 0.5 ? std::abs((x - Eigen::Vector3d(0, 0, 0.5)).norm() - 0.25) : 1e9;
+      const double side = x[2] <= 0.5 ? std::abs(std::hypot(x[0], x[1]) - 0.25) : 1e9;
+      return std::min({top, side, std::abs(x[2]), std::abs(x[2] + 0.2), std::abs(std::abs(x[0]) - 1),
+                       std::abs(std::abs(x[1]) - 1)});
+    };
+    const Case c = run("knob, Gmsh's size", m, dist);
+    check_result(m, c.r4);
+    CHECK(c.p4 < 3e-4);
+    CHECK(c.linear > 100 * c.p4);
+  }
+}
+
 TEST_CASE("a chamfer one triangle wide under a cylinder: face nodes follow the rim circle") {
   // Unit cylinder on a 45 degree chamfer 0.15 high (a cone), h = 0.35. The rim circles move the
   // edges on them radially, in the cone's tangent plane; the face nodes beside them, placed along
