@@ -494,6 +494,36 @@ TEST_CASE("coarse caps at Gmsh's own sizes: a fan of 7 inside a shallow crease, 
   }
 }
 
+TEST_CASE("a coarse elbow at Gmsh's own size: a false crease inside a cylinder leg goes on the cylinder") {
+  // Two cylinders (r = 0.3) joined by a quarter torus (R = 1): tangent circles, 226 triangles. The
+  // kink test takes a chord of a leg, beside the junction, for a crease; its curve fit was 3.4e-2 off
+  // the cylinder. Both its faces lie on the leg's exact cylinder (chord_of_one_surface): there it
+  // goes. Gmsh's exact-CAD P4 5.9e-4.
+  Mesh m;
+  {
+    GmshSession gmsh_session;
+    gmsh::model::add("elbow");
+    gmsh::vectorpair torus, out;
+    std::vector<gmsh::vectorpair> map;
+    gmsh::model::occ::intersect({{3, gmsh::model::occ::addTorus(0, 0, 0, 1, 0.3)}},
+                                {{3, gmsh::model::occ::addBox(0, 0, -1, 2, 2, 2)}}, torus, map);
+    torus.push_back({3, gmsh::model::occ::addCylinder(0, 1, 0, -1, 0, 0, 0.3)});
+    gmsh::model::occ::fuse({{3, gmsh::model::occ::addCylinder(1, 0, 0, 0, -1, 0, 0.3)}}, torus, out, map);
+    gmsh::model::occ::synchronize();
+    m = gmsh_surface_mesh(1e22, 1e-9);
+  }
+  const Dist dist = [](const Eigen::Vector3d& x) {
+    const double tube = x[0] >= 0 && x[1] >= 0   ? std::abs(std::hypot(std::hypot(x[0], x[1]) - 1, x[2]) - 0.3)
+                        : x[1] < 0               ? std::abs(std::hypot(x[0] - 1, x[2]) - 0.3)
+                                                 : std::abs(std::hypot(x[1] - 1, x[2]) - 0.3);
+    return std::min({tube, std::abs(x[0] + 1), std::abs(x[1] + 1)});
+  };
+  const Case c = run("elbow, Gmsh's size", m, dist);
+  check_result(m, c.r4);
+  CHECK(c.p4 < 1e-3);
+  CHECK(c.linear > 50 * c.p4);
+}
+
 TEST_CASE("a chamfer one triangle wide under a cylinder: face nodes follow the rim circle") {
   // Unit cylinder on a 45 degree chamfer 0.15 high (a cone), h = 0.35. The rim circles move the
   // edges on them radially, in the cone's tangent plane; the face nodes beside them, placed along
