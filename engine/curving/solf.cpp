@@ -12,6 +12,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 namespace hocurve {
 
@@ -24,29 +25,54 @@ Deviation measure_deviation(const Mesh& mesh, const HighOrderMesh& hm) {
   const Eigen::VectorXd line = line_reference_nodes(p, hm.distribution);
   const Eigen::MatrixXd tri = triangle_reference_nodes(p, hm.distribution);
   const int npe = hm.nodes_per_edge(), npf = hm.nodes_per_face();
-  double sum2 = 0;
+  // Unit normals of the straight triangles (zero for a degenerate one: its offsets count whole),
+  // and up to two per edge.
+  const int nf = hm.num_faces();
+  Eigen::MatrixXd normal(nf, 3);
+  for (int f = 0; f < nf; ++f) {
+    const Eigen::Vector3d n = face_normal(mesh, f);
+    normal.row(f) = n.norm() > 0 ? Eigen::RowVector3d(n.normalized().transpose()) : Eigen::RowVector3d::Zero();
+  }
+  Eigen::MatrixXi edge_face = Eigen::MatrixXi::Constant(hm.E.rows(), 2, -1);
+  for (int f = 0; f < nf; ++f)
+    for (int j = 0; j < 3; ++j) {
+      const int e = hm.FE(f, j);
+      edge_face(e, edge_face(e, 0) < 0 ? 0 : 1) = f;
+    }
+  double sum2 = 0, normal_sum2 = 0;
   long long count = 0;
-  auto add = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-    const double d = (a - b).norm();
+  auto along = [&](const Eigen::Vector3d& d, int f) {
+    return f < 0 ? std::numeric_limits<double>::infinity()
+                 : normal.row(f).squaredNorm() > 0 ? std::abs(normal.row(f).dot(d)) : d.norm();
+  };
+  auto add = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, int f, int g) {
+    const Eigen::Vector3d offset = a - b;
+    const double d = offset.norm(), dn = std::min({d, along(offset, f), along(offset, g)});
     D.max = std::max(D.max, d);
+    D.normal_max = std::max(D.normal_max, dn);
     sum2 += d * d;
+    normal_sum2 += dn * dn;
     ++count;
   };
   for (Eigen::Index e = 0; e < hm.E.rows(); ++e)
     for (int k = 1; k < p; ++k) {
       const double t = line[k];
       const Eigen::Vector3d x = (1 - t) * mesh.V.row(hm.E(e, 0)) + t * mesh.V.row(hm.E(e, 1));
-      add(hm.edge_nodes.row(e * npe + k - 1).transpose(), x);
+      add(hm.edge_nodes.row(e * npe + k - 1).transpose(), x, edge_face(e, 0), edge_face(e, 1));
     }
-  for (int f = 0; f < hm.num_faces(); ++f)
+  for (int f = 0; f < nf; ++f)
     for (int k = 0; k < npf; ++k) {
       const double u = tri(3 * p + k, 0), v = tri(3 * p + k, 1);
       const Eigen::Vector3d x = (1 - u - v) * mesh.V.row(mesh.F(f, 0)) + u * mesh.V.row(mesh.F(f, 1)) +
                                 v * mesh.V.row(mesh.F(f, 2));
-      add(hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k).transpose(), x);
+      add(hm.face_nodes.row(static_cast<Eigen::Index>(f) * npf + k).transpose(), x, f, -1);
     }
   D.rms = count ? std::sqrt(sum2 / count) : 0;
-  if (D.bbox_diagonal > 0) D.max_relative = D.max / D.bbox_diagonal, D.rms_relative = D.rms / D.bbox_diagonal;
+  D.normal_rms = count ? std::sqrt(normal_sum2 / count) : 0;
+  if (D.bbox_diagonal > 0) {
+    D.max_relative = D.max / D.bbox_diagonal, D.rms_relative = D.rms / D.bbox_diagonal;
+    D.normal_max_relative = D.normal_max / D.bbox_diagonal, D.normal_rms_relative = D.normal_rms / D.bbox_diagonal;
+  }
   return D;
 }
 

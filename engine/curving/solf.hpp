@@ -48,6 +48,11 @@ struct Deviation {
   double max = 0, rms = 0;
   double bbox_diagonal = 0;
   double max_relative = 0, rms_relative = 0;  ///< over the bounding-box diagonal
+  /// The same for the offsets' parts along the normals of the node's straight triangles (an edge
+  /// node: the smaller over its two): how far the curved surface leaves the input's facets. A
+  /// node moved along the surface (untangled, or following a curve side) raises max, not this.
+  double normal_max = 0, normal_rms = 0;
+  double normal_max_relative = 0, normal_rms_relative = 0;
 };
 
 struct CurveResult {

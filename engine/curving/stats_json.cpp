@@ -71,7 +71,11 @@ nlohmann::json stats_json(const CurveResult& r) {
                     {"rms", r.deviation.rms},
                     {"bbox_diagonal", r.deviation.bbox_diagonal},
                     {"max_relative", r.deviation.max_relative},
-                    {"rms_relative", r.deviation.rms_relative}};
+                    {"rms_relative", r.deviation.rms_relative},
+                    {"normal_max", r.deviation.normal_max},
+                    {"normal_rms", r.deviation.normal_rms},
+                    {"normal_max_relative", r.deviation.normal_max_relative},
+                    {"normal_rms_relative", r.deviation.normal_rms_relative}};
   j["total_seconds"] = r.total_seconds;
   return j;
 }

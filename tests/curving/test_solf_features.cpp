@@ -444,6 +444,36 @@ TEST_CASE("a spherical cap meeting a block's sides, sized by curvature: rim edge
   CHECK(p4 < 3e-5);
 }
 
+TEST_CASE("measure_deviation: a node moved along its facet counts in max, not in normal_max") {
+  // Two triangles folded 90 degrees along their shared edge (x axis): an edge node's normal part is
+  // the smaller over its two faces.
+  Mesh m;
+  m.V.resize(4, 3);
+  m.V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  m.F.resize(2, 3);
+  m.F << 0, 1, 2, 1, 0, 3;
+  const Topology T = build_topology(m.F, m.num_vertices());
+  HighOrderMesh hm = make_straight_high_order(m, T, 3);
+  CHECK(measure_deviation(m, hm).max == 0.0);
+  hm.face_nodes.row(0) += Eigen::RowVector3d(0.1, 0.05, 0);  // in the plane z = 0: tangential
+  Deviation D = measure_deviation(m, hm);
+  CHECK(D.max == doctest::Approx(std::hypot(0.1, 0.05)));
+  CHECK(D.normal_max == doctest::Approx(0.0));
+  hm.face_nodes.row(0) += Eigen::RowVector3d(0, 0, 0.02);  // and off it
+  D = measure_deviation(m, hm);
+  CHECK(D.normal_max == doctest::Approx(0.02));
+  // The shared edge's node moved along y (across face 1's plane x-z, along face 0's x-y): 0 normal to face 0.
+  int shared = -1;
+  for (Eigen::Index e = 0; e < hm.E.rows(); ++e)
+    if (hm.E(e, 0) == 0 && hm.E(e, 1) == 1) shared = static_cast<int>(e);
+  REQUIRE(shared >= 0);
+  hm.edge_nodes.row(shared * hm.nodes_per_edge()) += Eigen::RowVector3d(0, 0.3, 0);
+  D = measure_deviation(m, hm);
+  CHECK(D.max == doctest::Approx(0.3));
+  CHECK(D.normal_max == doctest::Approx(0.02));
+  CHECK(D.normal_max_relative == doctest::Approx(0.02 / std::sqrt(3.0)));
+}
+
 TEST_CASE("coarse caps at Gmsh's own sizes: a fan of 7 inside a shallow crease, a hemisphere on a cylinder") {
   // At Gmsh's own size the small cap of the block (sphere r = 0.35 rising 0.05 out of its top,
   // meeting it at 31 degrees: no crease) is a fan of 7 triangles, 8 points: too few for a quadric,
