@@ -8,6 +8,7 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/QR>
+#include <tbb/parallel_for.h>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -240,13 +241,19 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
   if (kink_test) {
     const std::vector<char> wall = R.edge_feature;
     const bool smooth_entities = opt.entity_borders && !opt.kinks_inside_entities && R.entity_border_edges > 0;
+    std::vector<char> kinked(ne, 0);  // each edge's test reads only the walls: in parallel
+    tbb::parallel_for(tbb::blocked_range<int>(0, ne, 256), [&](const tbb::blocked_range<int>& r) {
+      for (int e = r.begin(); e < r.end(); ++e) {
+        if (wall[e] || T.edge_faces[e].size() != 2 || theta[e] < opt.weak_angle_deg ||
+            (theta[e] > opt.angle_deg && !cap[e]))
+          continue;
+        if (smooth_entities && mesh.entity_of(T.edge_faces[e][0]) == mesh.entity_of(T.edge_faces[e][1])) continue;
+        const double kink = kink_angle_deg(mesh, T, wall, e, cap[e] || needle[e]);
+        kinked[e] = kink >= opt.kink_angle_deg && (cap[e] || kink >= 0.5 * theta[e]);
+      }
+    });
     for (int e = 0; e < ne; ++e) {
-      if (wall[e] || T.edge_faces[e].size() != 2 || theta[e] < opt.weak_angle_deg ||
-          (theta[e] > opt.angle_deg && !cap[e]))
-        continue;
-      if (smooth_entities && mesh.entity_of(T.edge_faces[e][0]) == mesh.entity_of(T.edge_faces[e][1])) continue;
-      const double kink = kink_angle_deg(mesh, T, wall, e, cap[e] || needle[e]);
-      if (kink >= opt.kink_angle_deg && (cap[e] || kink >= 0.5 * theta[e]) && !on_quadric(e)) {
+      if (kinked[e] && !on_quadric(e)) {
         ++R.sharp_edges, ++R.kink_edges;
         only_sharp[e] = 1;
         R.edge_feature[e] = 1;
