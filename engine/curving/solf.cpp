@@ -86,6 +86,7 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     if (opt.progress) opt.progress(stage, f);
   };
   CurveResult R;
+  std::vector<ElementValidity> floor_checks;  // the untangling's element checks, for the repair
   R.method = opt.method == CurveOptions::Method::Solf ? "solf" : "linear";
   R.vertices = mesh.num_vertices();
   R.faces = mesh.num_faces();
@@ -173,13 +174,17 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
       std::vector<char> fixed = R.features.edge_feature;
       for (size_t e = 0; e < fixed.size() && e < P.crossing.size(); ++e) fixed[e] = fixed[e] || P.crossing[e];
       const SurfaceOfFaces surface{&mesh, &W, &R.fits.fits, &planar, &face_fits, &long_edge};
-      R.untangle = untangle_in_surface(T, fixed, surface, opt.validity, R.mesh, opt.untangle);
+      R.untangle = untangle_in_surface(T, fixed, surface, opt.validity, R.mesh, opt.untangle, &floor_checks);
     }
   }
 
   progress("validity", 0.85);
   t0 = Clock::now();
-  R.validity = opt.repair ? repair_validity(R.mesh, opt.validity) : check_validity(R.mesh, opt.validity);
+  const bool reuse = floor_checks.size() == static_cast<size_t>(R.mesh.F.rows()) &&
+                     opt.validity.quality_floor > opt.validity.min_scaled_jacobian;
+  R.validity = opt.repair ? repair_validity(R.mesh, opt.validity, reuse ? &floor_checks : nullptr)
+                          : check_validity(R.mesh, opt.validity);
+  floor_checks = {};
   R.validity_seconds = seconds_since(t0);
   R.deviation = measure_deviation(mesh, R.mesh);
   R.total_seconds = seconds_since(t_all);

@@ -219,7 +219,8 @@ std::vector<ElementValidity> check_faces(const HighOrderMesh& hm, const Jacobian
 
 UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& fixed_edges,
                                    const SurfaceOfFaces& surface, const ValidityOptions& validity,
-                                   HighOrderMesh& hm, const UntangleOptions& opt) {
+                                   HighOrderMesh& hm, const UntangleOptions& opt,
+                                   std::vector<ElementValidity>* checks) {
   const auto t0 = Clock::now();
   UntangleResult R;
   if (!opt.enabled || hm.order < 2 || fixed_edges.size() != static_cast<size_t>(T.num_edges())) return R;
@@ -232,6 +233,7 @@ UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& f
     if (!ev[f].valid && !ev[f].degenerate && !surface.frozen(f)) targets.push_back(f);
   R.targets = static_cast<long long>(targets.size());
   if (targets.empty()) {
+    if (checks) *checks = std::move(ev);
     R.seconds = seconds_since(t0);
     return R;
   }
@@ -287,6 +289,7 @@ UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& f
     }
     ++R.kept;
   }
+  if (checks) *checks = std::move(ev);
   R.seconds = seconds_since(t0);
   return R;
 }

@@ -53,8 +53,11 @@ struct SurfaceOfFaces {
 /// back onto the surface (surface.point). A patch is kept only when it has fewer faces below the
 /// threshold and no face that cleared it falls below. fixed_edges: per Topology edge, 1 where its
 /// nodes stay and patches do not grow across (feature curves; edges on exact surfaces' crossings).
+/// checks: receives every face's check at that threshold for hm as left (a patch's rim stays, so
+/// only its faces change), for repair_validity's floor_checks; empty when none was made.
 UntangleResult untangle_in_surface(const Topology& T, const std::vector<char>& fixed_edges,
                                    const SurfaceOfFaces& surface, const ValidityOptions& validity,
-                                   HighOrderMesh& hm, const UntangleOptions& opt = {});
+                                   HighOrderMesh& hm, const UntangleOptions& opt = {},
+                                   std::vector<ElementValidity>* checks = nullptr);
 
 }  // namespace hocurve

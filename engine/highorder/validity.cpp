@@ -512,7 +512,8 @@ ValidityReport repair_pass(HighOrderMesh& hm, const JacobianBasis& basis, const 
 }
 }  // namespace
 
-ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt) {
+ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt,
+                               const std::vector<ElementValidity>* floor_checks) {
   check_options(opt);
   check_mesh_shape(hm, "repair_validity");
   const JacobianBasis basis(hm.order);
@@ -537,7 +538,15 @@ ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt) {
   // same way toward straight until they clear it; the report keeps the validity threshold.
   ValidityOptions q = opt;
   q.min_scaled_jacobian = opt.quality_floor;
-  std::vector<ElementValidity> eq = check_all(hm, basis, q);
+  std::vector<ElementValidity> eq;
+  if (floor_checks && needles == 0 && floor_checks->size() == static_cast<size_t>(hm.F.rows())) {
+    eq = *floor_checks;  // current but for the faces the first pass moved
+    std::sort(moved.begin(), moved.end());
+    moved.erase(std::unique(moved.begin(), moved.end()), moved.end());
+    check_faces(hm, basis, q, moved, eq);
+  } else {
+    eq = check_all(hm, basis, q);
+  }
   moved.clear();
   const ValidityReport rq = repair_pass(hm, basis, q, eq, moved);
   std::sort(moved.begin(), moved.end());

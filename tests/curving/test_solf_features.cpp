@@ -1379,7 +1379,7 @@ TEST_CASE("PN triangles: corners kept, flat stays flat, a sphere octant within i
   P << 0, 0, 0, 2, 0, 0, 0, 1, 0;
   N << 0, 0, 1, 0, 0, 1, 0, 0, 1;
   double off_plane = 0, corner = 0;
-  for (const Eigen::Vector3d xi : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0, 1)}) {
+  for (const Eigen::Vector3d& xi : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0, 1)}) {
     corner = std::max(corner, (pn_triangle_point(P, N, xi) - P.transpose() * xi).norm());
   }
   for (double u = 0; u <= 1.0001; u += 0.125)
