@@ -180,9 +180,9 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
 
   progress("validity", 0.85);
   t0 = Clock::now();
-  const bool reuse = floor_checks.size() == static_cast<size_t>(R.mesh.F.rows()) &&
-                     opt.validity.quality_floor > opt.validity.min_scaled_jacobian;
-  R.validity = opt.repair ? repair_validity(R.mesh, opt.validity, reuse ? &floor_checks : nullptr)
+  // The untangling checked at max(min_scaled_jacobian, quality_floor): the repair's floor pass,
+  // which runs only when the floor is the higher.
+  R.validity = opt.repair ? repair_validity(R.mesh, opt.validity, floor_checks.empty() ? nullptr : &floor_checks)
                           : check_validity(R.mesh, opt.validity);
   floor_checks = {};
   R.validity_seconds = seconds_since(t0);
