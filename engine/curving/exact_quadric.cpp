@@ -373,10 +373,6 @@ bool face_agrees(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuad
 
 namespace {
 
-/// The quadric, else (opt.cyclides) the cyclide, through the vertices of `faces` (invalid unless
-/// they lie on it within tolerance, it is determined, and it is regular at `ends`: a crease
-/// between two planes lies on their product, singular along it). planes: a plane through them
-/// is taken too. sphere: a sphere only (fit_exact_sphere).
 /// fit_exact_quadric (planes: a plane first), else with opt.cyclides fit_exact_cyclide (empty below
 /// 16 points), both bounded by tolerance, from one pass over the points: the cyclides' monomials
 /// include the quadrics', so where no cyclide is within tolerance (every wedge of a scan) no
@@ -412,6 +408,10 @@ ExactQuadric fit_quadric_or_cyclide(const Eigen::MatrixXd& P, bool planes, doubl
   return C;
 }
 
+/// The quadric, else (opt.cyclides) the cyclide, through the vertices of `faces` (invalid unless
+/// they lie on it within tolerance, it is determined, and it is regular at `ends`: a crease
+/// between two planes lies on their product, singular along it). planes: a plane through them
+/// is taken too. sphere: a sphere only (fit_exact_sphere).
 ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::initializer_list<int> ends,
                         const ExactQuadricOptions& opt, bool planes = false, bool sphere = false) {
   const std::vector<int> verts = face_corners(mesh, faces.data(), faces.data() + faces.size());
