@@ -182,9 +182,8 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
   t0 = Clock::now();
   // The untangling checked at max(min_scaled_jacobian, quality_floor): the repair's floor pass,
   // which runs only when the floor is the higher.
-  R.validity = opt.repair ? repair_validity(R.mesh, opt.validity, floor_checks.empty() ? nullptr : &floor_checks)
+  R.validity = opt.repair ? repair_validity(R.mesh, opt.validity, std::move(floor_checks))
                           : check_validity(R.mesh, opt.validity);
-  floor_checks = {};
   R.validity_seconds = seconds_since(t0);
   R.deviation = measure_deviation(mesh, R.mesh);
   R.total_seconds = seconds_since(t_all);

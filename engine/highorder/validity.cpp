@@ -513,7 +513,7 @@ ValidityReport repair_pass(HighOrderMesh& hm, const JacobianBasis& basis, const 
 }  // namespace
 
 ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt,
-                               const std::vector<ElementValidity>* floor_checks) {
+                               std::vector<ElementValidity> floor_checks) {
   check_options(opt);
   check_mesh_shape(hm, "repair_validity");
   const JacobianBasis basis(hm.order);
@@ -539,8 +539,8 @@ ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt,
   ValidityOptions q = opt;
   q.min_scaled_jacobian = opt.quality_floor;
   std::vector<ElementValidity> eq;
-  if (floor_checks && needles == 0 && floor_checks->size() == static_cast<size_t>(hm.F.rows())) {
-    eq = *floor_checks;  // current but for the faces the first pass moved
+  if (needles == 0 && floor_checks.size() == static_cast<size_t>(hm.F.rows())) {
+    eq = std::move(floor_checks);  // current but for the faces the first pass moved
     std::sort(moved.begin(), moved.end());
     moved.erase(std::unique(moved.begin(), moved.end()), moved.end());
     check_faces(hm, basis, q, moved, eq);

@@ -118,10 +118,10 @@ std::vector<ElementValidity> check_elements(const HighOrderMesh& hm, const Valid
 /// Checks and repairs: invalid elements have their high-order displacement (edge and face
 /// nodes relative to the straight positions) shrunk step by step; shared edge nodes move for
 /// both neighbours, so neighbours are re-checked until every element is valid. floor_checks:
-/// when given, every element's check at the quality floor (check_elements with
+/// when not empty, every element's check at the quality floor (check_elements with
 /// min_scaled_jacobian = quality_floor) of hm as it is now, e.g. the untangling's; they are
 /// updated instead of checking every element again.
 ValidityReport repair_validity(HighOrderMesh& hm, const ValidityOptions& opt = {},
-                               const std::vector<ElementValidity>* floor_checks = nullptr);
+                               std::vector<ElementValidity> floor_checks = {});
 
 }  // namespace hocurve
