@@ -355,9 +355,10 @@ bool plane_sphere(const ExactQuadric& Q) { return Q.cyclide() && std::abs(Q.c[13
 
 bool reducible(const ExactQuadric& Q) { return plane_pair(Q) || plane_sphere(Q); }
 
-bool determined(const ExactQuadric& Q, double tolerance, const ExactQuadricOptions& opt) {
-  return Q.valid && Q.max_residual <= tolerance &&
-         Q.runner_up >= (Q.cyclide() ? opt.unique_cyclide : opt.unique) * tolerance;
+bool determined(const ExactQuadric& Q, double tolerance, const ExactQuadricOptions& opt, double size) {
+  const bool precise = tolerance <= opt.cyclide_precision * size;
+  const double unique = !Q.cyclide() ? opt.unique : precise ? opt.unique_cyclide_precise : opt.unique_cyclide;
+  return Q.valid && Q.max_residual <= tolerance && Q.runner_up >= unique * tolerance;
 }
 
 bool face_agrees(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side) {
@@ -411,16 +412,29 @@ ExactQuadric fit_quadric_or_cyclide(const Eigen::MatrixXd& P, bool planes, doubl
 /// The quadric, else (opt.cyclides) the cyclide, through the vertices of `faces` (invalid unless
 /// they lie on it within tolerance, it is determined, and it is regular at `ends`: a crease
 /// between two planes lies on their product, singular along it). planes: a plane through them
-/// is taken too. sphere: a sphere only (fit_exact_sphere).
+/// is taken too. sphere: a sphere only (fit_exact_sphere). off_features: through the corners off
+/// W's feature curves only, those on them within opt.clear_factor x the tolerance (invalid where
+/// no corner is on one): a CAD kernel's curves between two faces are only within the file's
+/// tolerance of them (screw.step: the slot's rims 12x the tolerance off the dome).
 ExactQuadric fit_region(const Mesh& mesh, const std::vector<int>& faces, std::initializer_list<int> ends,
-                        const ExactQuadricOptions& opt, bool planes = false, bool sphere = false) {
+                        const ExactQuadricOptions& opt, bool planes = false, bool sphere = false,
+                        const Wedges* off_features = nullptr) {
   const std::vector<int> verts = face_corners(mesh, faces.data(), faces.data() + faces.size());
-  Eigen::MatrixXd P(verts.size(), 3);
-  for (size_t i = 0; i < verts.size(); ++i) P.row(i) = mesh.V.row(verts[i]);
-  const double tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
+  auto on_feature = [&](int v) { return off_features && off_features->vertex_wedges(v) > 1; };
+  const long fitted = std::count_if(verts.begin(), verts.end(), [&](int v) { return !on_feature(v); });
+  if (fitted < 4 || (off_features && fitted == static_cast<long>(verts.size()))) return ExactQuadric();
+  Eigen::MatrixXd P(fitted, 3);
+  double largest_norm = 0;
+  for (size_t i = 0, k = 0; i < verts.size(); ++i) {
+    largest_norm = std::max(largest_norm, mesh.V.row(verts[i]).norm());
+    if (!on_feature(verts[i])) P.row(k++) = mesh.V.row(verts[i]);
+  }
+  const double tolerance = opt.relative_tolerance() * largest_norm;
   ExactQuadric Q = sphere ? fit_exact_sphere(P) : fit_quadric_or_cyclide(P, planes, tolerance, opt);
   Q.tolerance = tolerance;
-  Q.valid = determined(Q, tolerance, opt) && !reducible(Q);
+  Q.valid = determined(Q, tolerance, opt, (P.colwise().maxCoeff() - P.colwise().minCoeff()).norm()) && !reducible(Q);
+  for (int v : verts)
+    if (on_feature(v) && !(Q.distance(mesh.V.row(v).transpose()) <= opt.clear_factor * tolerance)) Q.valid = false;
   double largest = 0;
   for (int v : verts) largest = std::max(largest, Q.gradient(mesh.V.row(v).transpose()).norm());
   for (int v : ends)
@@ -618,14 +632,22 @@ ExactQuadric wedge_exact_quadric(const Mesh& mesh, const Topology& T, const Wedg
   const Stencil S = grow_stencil(mesh, T, W, w, so, scratch);
   ExactQuadric Q;
   if (S.faces.empty()) return Q;
-  Q = fit_region(mesh, S.faces, {W.wedge_vertex[w]}, opt, true);
+  // Where the stencil's corners on no exact surface include some on feature curves, its corners
+  // off them may still lie on one (fit_region's off_features).
+  auto fit = [&](const std::vector<int>& faces) {
+    ExactQuadric A = fit_region(mesh, faces, {W.wedge_vertex[w]}, opt, true);
+    if (A.valid) return A;
+    ExactQuadric B = fit_region(mesh, faces, {W.wedge_vertex[w]}, opt, true, false, &W);
+    return B.valid ? B : A;
+  };
+  Q = fit(S.faces);
   if (Q.valid && !all_agree(agreeing(mesh, Q, S.faces, opt))) Q.valid = false;
   if ((Q.valid || (opt.cyclides && !off_every_cyclide(Q))) && opt.confirm_points > opt.wedge_points) {
     so.max_rings = opt.rings + 2;
     so.target_points = opt.confirm_points;
     const Stencil L = grow_stencil(mesh, T, W, w, so, scratch);
     if (L.faces.size() > S.faces.size()) {
-      ExactQuadric C = fit_region(mesh, L.faces, {W.wedge_vertex[w]}, opt, true);
+      ExactQuadric C = fit(L.faces);
       C.valid = C.valid && all_agree(agreeing(mesh, C, L.faces, opt));
       // A quadric is confirmed by the larger stencil's quadric (not by a cyclide through it:
       // king's revolved profile), a cyclide by its cyclide; one the small stencil did not

@@ -142,6 +142,16 @@ struct ExactQuadricOptions {
   /// export's rings) lie on one cyclide of revolution. King's profile got 26 false ones at 1000
   /// (0.50% -> 0.67% off the input); the tori of CAD parts are determined 10^4 - 10^6 x over.
   double unique_cyclide = 1e4;
+  /// ... but only this where the tolerance is within cyclide_precision x the points' extent: a
+  /// small part of a torus beside its axis (screw.step's dome, its tube radius 6.7x its axis
+  /// radius, next to the apex) lies within 65-350x the tolerance of a second cyclide however many
+  /// points it has (at 50, fits that the next cyclide misses by 50-100x cost the screw at d/80
+  /// P4 3.5e-4 -> 7.8e-4); there 16-52 points within 2e-6 of the extent lie on one.
+  double unique_cyclide_precise = 100;
+  /// Where that holds: the screw's dome regions 2e-6 (float32, coordinates ~ 5x the region);
+  /// king's seven-digit text reaches 5e-6 on its largest regions, whose cyclides then took P6
+  /// 0.44% -> 0.49% off the input.
+  double cyclide_precision = 3e-6;
   /// A wedge off the features tries its exact quadric only where one of its faces turns from its fit's normal by
   /// more than this (degrees; local_fit.cpp): below, a degree-4 polynomial fits to about
   /// (2 degrees in radians)^5 h = 5e-8 h, and the test would only cost time (the 200k-triangle
@@ -168,8 +178,10 @@ struct ExactQuadricOptions {
 
 /// Q is the surface of the points it was fitted to: valid, within `tolerance` of every one, and
 /// determined by them (the next-best fit misses by opt.unique x tolerance, opt.unique_cyclide for
-/// cyclides, whose extra terms fit more point sets).
-bool determined(const ExactQuadric& Q, double tolerance, const ExactQuadricOptions& opt);
+/// cyclides, whose extra terms fit more point sets; opt.unique_cyclide_precise where the
+/// tolerance is within opt.cyclide_precision x `size`, the points' extent (bounding box diagonal), when
+/// given).
+bool determined(const ExactQuadric& Q, double tolerance, const ExactQuadricOptions& opt, double size = 0);
 
 /// True when face f's normal is within opt.max_normal_angle_deg of Q's at each of its corners, on
 /// the side given (side 0: set to that of the first corner).

@@ -52,16 +52,20 @@ bool wants_surface(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit
 
 }  // namespace
 
-bool face_on(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side) {
-  for (int j = 0; j < 3; ++j)
-    if (!(Q.distance(mesh.V.row(mesh.F(f, j)).transpose()) <= opt.on_factor * Q.tolerance)) return false;
+bool face_on(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side,
+             const Wedges* W) {
+  for (int j = 0; j < 3; ++j) {
+    const bool feature = W && W->vertex_wedges(mesh.F(f, j)) > 1;
+    if (!(Q.distance(mesh.V.row(mesh.F(f, j)).transpose()) <= (feature ? opt.clear_factor : opt.on_factor) * Q.tolerance))
+      return false;
+  }
   return face_agrees(mesh, f, Q, opt, side);
 }
 
 bool wedge_faces_on(const Mesh& mesh, const Wedges& W, int w, const ExactQuadric& Q, const ExactQuadricOptions& opt) {
   double side = 0;
   for (int i = W.wedge_start[w]; i < W.wedge_start[w + 1]; ++i)
-    if (!face_on(mesh, W.wedge_faces[i], Q, opt, side)) return false;
+    if (!face_on(mesh, W.wedge_faces[i], Q, opt, side, &W)) return false;
   return side != 0;
 }
 
@@ -81,7 +85,7 @@ std::vector<const LocalFit*> face_exact_fits(const Mesh& mesh, const Topology& T
             const LocalFit* F = &fits[W.corner_wedge(*b, k)];
             if (!F->exact || F->apex || std::find(found.begin(), found.end(), F) != found.end()) continue;
             double side = 0;
-            if (face_on(mesh, f, *F->surface, opt, side)) found.push_back(F);
+            if (face_on(mesh, f, *F->surface, opt, side, &W)) found.push_back(F);
           }
       if (found.empty()) continue;
       // Two surfaces through the three corners (a face with every corner on a junction curve)
@@ -182,7 +186,7 @@ ExactQuadric tangent_region_surface(const Mesh& mesh, const Topology& T, const W
   auto holds = [&](const ExactQuadric& S) {
     if (!determined(S, tolerance, opt) || reducible(S)) return false;
     double side = 0;
-    return std::all_of(faces.begin(), faces.end(), [&](int f) { return face_on(mesh, f, S, opt, side); });
+    return std::all_of(faces.begin(), faces.end(), [&](int f) { return face_on(mesh, f, S, opt, side, &W); });
   };
   Q = fit_tangent_quadric(P, X.topRows(m), N.topRows(m));
   Q.tolerance = tolerance;
@@ -321,7 +325,7 @@ long long refit_shared_surfaces(const Mesh& mesh, const Wedges& W, const ExactQu
         if (a == b || !holds(a) || !holds(b)) continue;
         double side_a = 0, side_b = 0;
         if (fits[a].surface == fits[b].surface ||
-            (face_on(mesh, f, *fits[a].surface, opt, side_a) && face_on(mesh, f, *fits[b].surface, opt, side_b)))
+            (face_on(mesh, f, *fits[a].surface, opt, side_a, &W) && face_on(mesh, f, *fits[b].surface, opt, side_b, &W)))
           join(a, b);
       }
   // Groups in order of their first wedge (deterministic).

@@ -17,11 +17,15 @@ namespace hocurve {
 /// the frame's normal is the surface's at o, on the side of fit.n.
 LocalFit exact_surface_fit(std::shared_ptr<const ExactQuadric> surface, const LocalFit& fit, int p);
 
-/// True when face f's corners lie on Q (within opt.on_factor x its tolerance) and its normal is within
-/// opt.max_normal_angle_deg of Q's at each, on the side given (side 0: set to that of the first).
-bool face_on(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side);
+/// True when face f's corners lie on Q (within opt.on_factor x its tolerance; with W, a corner on a
+/// feature curve within opt.clear_factor x it) and its normal is within opt.max_normal_angle_deg of
+/// Q's at each, on the side given (side 0: set to that of the first). Why feature corners apart: a
+/// CAD kernel's curves between two faces are only within the file's tolerance of them, and Gmsh
+/// puts the rim's vertices on the curve (screw.step: a slot's rim 12x the tolerance off the dome).
+bool face_on(const Mesh& mesh, int f, const ExactQuadric& Q, const ExactQuadricOptions& opt, double& side,
+             const Wedges* W = nullptr);
 
-/// True when every corner of wedge w's faces lies on Q (within its tolerance) and every face's
+/// True when every corner of wedge w's faces lies on Q (face_on, feature corners apart) and every face's
 /// normal is within opt.max_normal_angle_deg of Q's at its corners, all on one side.
 bool wedge_faces_on(const Mesh& mesh, const Wedges& W, int w, const ExactQuadric& Q, const ExactQuadricOptions& opt);
 

@@ -309,6 +309,40 @@ TEST_CASE("fit_exact_cyclide: exact on a torus, undetermined on a sphere") {
   CHECK(!fit_exact_cyclide(rows(noisy), 2 * N.max_residual).missed);
 }
 
+TEST_CASE("determined: a spindle torus beside its axis needs the precise bound, float32 gives it") {
+  // screw.step's dome: a torus of axis radius 8.25 and tube radius 54.87 (a spindle), of which the
+  // part more than 1.25 from the axis is left beside the slot. A stencil there at d/80 (edges
+  // 1.3): points within two edges of a vertex 2.6 from the axis (float32, ~30 from the origin).
+  // They lie on the torus to rounding, and a second cyclide comes within a few hundred x the
+  // tolerance: determined only where the tolerance is a small enough part of their extent.
+  const double R = 8.25, r = 54.87;
+  const Eigen::Vector3d at(-17.9, -0.83, 7.73 - std::sqrt(r * r - R * R));
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = 0; pts.size() < 40; ++i) {
+    const double s = 2.6 * std::sqrt(0.5 + 0.5 * std::sin(2.1 * i)), theta = 2 * pi * (0.5 + 0.5 * std::cos(1.3 * i));
+    const Eigen::Vector2d q(2.6 + s * std::cos(theta), s * std::sin(theta));
+    if (q.norm() < 1.25) continue;
+    const double rho = q.norm();
+    const Eigen::Vector3d x = at + Eigen::Vector3d(q[0], q[1], std::sqrt(r * r - (rho + R) * (rho + R)));
+    pts.push_back(x.cast<float>().cast<double>());
+  }
+  const Eigen::MatrixXd P = rows(pts);
+  const ExactQuadric C = fit_exact_cyclide(P);
+  const ExactQuadricOptions opt;
+  const double tolerance = opt.relative_tolerance() * P.rowwise().norm().maxCoeff();
+  const double extent = (P.colwise().maxCoeff() - P.colwise().minCoeff()).norm();
+  MESSAGE("spindle torus cap: residual " << C.max_residual / tolerance << ", next cyclide " << C.runner_up / tolerance
+                                         << " x the tolerance; tolerance / extent " << tolerance / extent);
+  CHECK(C.cyclide());
+  CHECK(C.max_residual <= tolerance);
+  CHECK(C.runner_up >= opt.unique_cyclide_precise * tolerance);
+  CHECK(C.runner_up < opt.unique_cyclide * tolerance);
+  CHECK(tolerance <= opt.cyclide_precision * extent);
+  CHECK(determined(C, tolerance, opt, extent));
+  CHECK(!determined(C, tolerance, opt));                 // no extent given: the general bound
+  CHECK(!determined(C, 10 * tolerance, opt, extent));    // a coarser input (text) is not precise
+}
+
 TEST_CASE("plane_sphere: a plane cap's points and a fillet's far rim lie on a plane times a sphere") {
   // A cylinder (radius 0.5) rounded (radius 0.12) down to its cap z = 0, its fillet one triangle
   // across: a stencil reaching over the cap's rim holds the cap's points, the fillet's upper rim
