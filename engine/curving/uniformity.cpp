@@ -14,9 +14,9 @@ namespace hocurve {
 Spread spread_of(std::vector<double> x) {
   Spread s;
   if (x.empty()) return s;
-  std::sort(x.begin(), x.end());
   const size_t n = x.size();
-  s.min = x.front(), s.max = x.back();
+  const auto [lo, hi] = std::minmax_element(x.begin(), x.end());
+  s.min = *lo, s.max = *hi;
   double sum = 0;
   for (double v : x) sum += v;
   s.mean = sum / n;
@@ -24,12 +24,16 @@ Spread spread_of(std::vector<double> x) {
   for (double v : x) var += (v - s.mean) * (v - s.mean);
   var /= n;
   s.cv = s.mean != 0 ? std::sqrt(var) / s.mean : 0;
-  // Linear interpolation between order statistics (numpy's default percentile).
+  // Linear interpolation between order statistics (numpy's default percentile). Selected, not
+  // sorted: a full sort of the 2.39M sphere's 3.6M edge lengths took 0.3 s.
   auto pct = [&](double q) {
     const double pos = q / 100.0 * (n - 1);
     const size_t i = static_cast<size_t>(std::floor(pos));
     const double t = pos - i;
-    return i + 1 < n ? x[i] + t * (x[i + 1] - x[i]) : x[n - 1];
+    std::nth_element(x.begin(), x.begin() + i, x.end());
+    if (i + 1 >= n) return x[i];
+    const double next = *std::min_element(x.begin() + i + 1, x.end());  // all >= x[i] now
+    return x[i] + t * (next - x[i]);
   };
   s.p1 = pct(1), s.p99 = pct(99);
   return s;
