@@ -142,12 +142,15 @@ struct ExactQuadricOptions {
   /// export's rings) lie on one cyclide of revolution. King's profile got 26 false ones at 1000
   /// (0.50% -> 0.67% off the input); the tori of CAD parts are determined 10^4 - 10^6 x over.
   double unique_cyclide = 1e4;
-  /// ... but only this where the tolerance is within cyclide_precision x the points' extent: a
-  /// small part of a torus beside its axis (screw.step's dome, its tube radius 6.7x its axis
-  /// radius, next to the apex) lies within 65-350x the tolerance of a second cyclide however many
-  /// points it has (at 50, fits that the next cyclide misses by 50-100x cost the screw at d/80
-  /// P4 3.5e-4 -> 7.8e-4); there 16-52 points within 2e-6 of the extent lie on one.
-  double unique_cyclide_precise = 100;
+  /// ... but only this where the tolerance is within cyclide_precision x the points' extent: there
+  /// 16-52 points within 2e-6 of their extent lie on one cyclide by design, and the next one
+  /// missing some point by 10x the tolerance tells it apart (a sphere's points lie within rounding
+  /// of a whole family of cyclides). A small part of a torus beside its axis (screw.step's dome,
+  /// its tube radius 6.7x its axis radius, next to the apex) lies within 15-350x the tolerance of
+  /// a second cyclide however many points it has. The screw at d/40, d/80, d/160, P4: 9.0e-3 /
+  /// 3.5e-4 / 2.5e-4 at 100, 3.3e-4 / 3.5e-4 / 1.2e-4 at 10 (no other of 91 inputs changes);
+  /// at 3 a CAD export (ktoolcav) and T20 at d/20 change too.
+  double unique_cyclide_precise = 10;
   /// Where that holds: the screw's dome regions 2e-6 (float32, coordinates ~ 5x the region);
   /// king's seven-digit text reaches 5e-6 on its largest regions, whose cyclides then took P6
   /// 0.44% -> 0.49% off the input.

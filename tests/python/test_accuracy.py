@@ -10,7 +10,8 @@ marching-tetrahedra spheres (caps and slivers): no false feature, cone point or 
 below linear; a marching-tetrahedra torus: no fit lowered to the straight triangles by its needles;
 open surfaces (a hemisphere, a quarter torus): P4 >= 1000x / 500x below linear at their rims too; a
 sphere cut by a plane: P4 at or below Gmsh's exact-CAD P4 next to the oblique rim; a cylinder crossed by a
-hole: P4 within 10x of Gmsh's CAD P4 along the intersection curve.
+hole: P4 within 10x of Gmsh's CAD P4 along the intersection curve; ../shared/meshes/cad/screw.step
+meshed by Gmsh at d/40 and d/80: P4 >= 100x below linear.
 
 Asserts: output reads back with Gmsh as a single block of type-23 triangles, one per input triangle,
 watertight/conforming (every edge's node set shared by exactly two elements), no element with a
@@ -337,12 +338,13 @@ def main(argv):
     # The torus at h = 0.05 (15k triangles): wedges took neighbours' cyclides, each fitted to one
     # stencil and 6-7e-7 off where extrapolated (P4 7.7e-7, 5.5x Gmsh's) until the wedges holding
     # one surface refit it together (refit_shared_surfaces): 6.4e-8.
-    # screw.step at d/80 (2954 triangles): its dome is a spindle torus whose apex the slot cuts
-    # away; the wedges beside the slot took no cyclide (the next one within 65-350x the tolerance,
-    # the slot's rims 12x the tolerance off the dome) and P4 was 45x below linear (1.25e-3) until
-    # ExactQuadricOptions::unique_cyclide_precise and fit_region's off_features: 159x (3.5e-4).
+    # screw.step at d/40 and d/80 (864 and 2954 triangles): its dome is a spindle torus whose apex
+    # the slot cuts away; the wedges beside the slot took no cyclide (the next one within 15-350x
+    # the tolerance, the slot's rims 12x the tolerance off the dome) and P4 was 21x / 45x below
+    # linear (9.0e-3 / 1.25e-3) until ExactQuadricOptions::unique_cyclide_precise and
+    # fit_region's off_features: 555x / 159x (3.3e-4 / 3.5e-4).
     cases = [("sphere", 0.1, 1000, 10), ("torus", 0.2, 1000, 10), ("torus", 0.05, 1000, 1), ("ellipsoid", 0.3, 50, None),
-             ("screw", "d/80", 100, None)]
+             ("screw", "d/40", 100, None), ("screw", "d/80", 100, None)]
     for name, size, gain, ref_factor in cases:
         stl = shapes.make_stl(name, size, work)
         h = shapes.size_value(name, size)
