@@ -25,7 +25,7 @@ Spread spread_of(std::vector<double> x) {
   var /= n;
   s.cv = s.mean != 0 ? std::sqrt(var) / s.mean : 0;
   // Linear interpolation between order statistics (numpy's default percentile). Selected, not
-  // sorted: a full sort of the 2.39M sphere's 3.6M edge lengths took 0.3 s.
+  // sorted: the 2.39M sphere's check took 0.64 s with four full sorts, 0.09 s so.
   auto pct = [&](double q) {
     const double pos = q / 100.0 * (n - 1);
     const size_t i = static_cast<size_t>(std::floor(pos));
