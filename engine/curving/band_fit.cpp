@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <numbers>
 
 namespace hocurve {
 
@@ -33,6 +35,26 @@ std::vector<int> bounding_feature_edges(const Mesh& mesh, const Topology& T, con
 int monomial_index(int j, int k) {
   const int d = j + k;
   return (d - 1) * (d + 2) / 2 + k;
+}
+
+/// LocalFit coefficients (monomials u^j v^k) of the ruled model sum_j x_j s^(j+1) + r sum_j
+/// x_(deg+j) s^j, with s = u - tan_phi v along the curve and r = v / cos_phi along the rulings.
+Eigen::VectorXd ruled_coefficients(const Eigen::VectorXd& x, int deg, double tan_phi, double cos_phi) {
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(fit_coefficients(deg));
+  // s^n = sum_i C(n, i) u^(n - i) (-tan_phi v)^i
+  auto add_power = [&](int n, int extra_v, double coef) {
+    double binom = 1, t = 1;
+    for (int i = 0; i <= n; ++i) {
+      if (n - i + i + extra_v > 0) c[monomial_index(n - i, i + extra_v)] += coef * binom * t;
+      binom = binom * (n - i) / (i + 1);
+      t *= -tan_phi;
+    }
+  };
+  for (int j = 0; j < deg; ++j) {
+    add_power(j + 1, 0, x[j]);
+    add_power(j, 1, x[deg + j] / cos_phi);
+  }
+  return c;
 }
 
 /// The fit moves no point of the wedge's faces by more than fit_offset_limit (fit_wedge's
@@ -102,49 +124,84 @@ LocalFit fit_band_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, co
   const double h = base.h;
   const double sigma = std::max(opt.sigma_factor * h, opt.sigma_reach * sd[std::min(k, so.target_points - 1) - 1]);
 
-  for (int deg = p; deg >= 1; --deg) {
+  // Rulings at angle phi to t2 (toward t1): coordinates s along t1, r along the ruling.
+  auto fit_at = [&](double phi, int deg, double& residual) {
+    LocalFit G = F;
+    residual = std::numeric_limits<double>::infinity();
     const int m = 2 * deg;
-    if (k < m) continue;
+    if (k < m) return G;
+    const double tan_phi = std::tan(phi), cos_phi = std::cos(phi);
     Eigen::MatrixXd A(k, m);
     Eigen::VectorXd b(k);
     for (int i = 0; i < k; ++i) {
       const Eigen::Vector3d d = Eigen::Vector3d(mesh.V.row(S.vertices[i + 1])) - o;
-      const double u = d.dot(F.t1) / h, vv = d.dot(F.t2) / h;
+      const double v = d.dot(F.t2) / h, r = v / cos_phi, su = d.dot(F.t1) / h - v * tan_phi;
       const double wt = std::exp(-dist[i] * dist[i] / (2 * sigma * sigma));
-      double pu = 1;
+      double ps = 1;
       for (int j = 0; j < deg; ++j) {
-        A(i, deg + j) = wt * vv * pu;  // v u^j
-        pu *= u;
-        A(i, j) = wt * pu;             // u^(j+1)
+        A(i, deg + j) = wt * r * ps;  // r s^j
+        ps *= su;
+        A(i, j) = wt * ps;            // s^(j+1)
       }
       b[i] = wt * d.dot(n) / h;
     }
     Eigen::VectorXd scale(m);
     for (int j = 0; j < m; ++j) {
-      const double s = A.col(j).norm();
-      if (!(s > 0)) return base;
-      scale[j] = 1.0 / s;
+      const double c = A.col(j).norm();
+      if (!(c > 0)) return G;
+      scale[j] = 1.0 / c;
       A.col(j) *= scale[j];
     }
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
     qr.setThreshold(opt.rank_tol);
-    if (qr.rank() < m) continue;
-    Eigen::VectorXd x = qr.solve(b);
-    x.array() *= scale.array();
-    if (!x.allFinite()) continue;
-    F.degree = deg;
-    F.c = Eigen::VectorXd::Zero(fit_coefficients(deg));
-    for (int j = 0; j < deg; ++j) {
-      F.c[monomial_index(j + 1, 0)] = x[j];
-      F.c[monomial_index(j, 1)] = x[deg + j];
-    }
-    F.points = k;
-    F.support_points = 0;
-    F.rings = S.rings;
-    F.pivot_ratio = std::abs(qr.matrixQR()(m - 1, m - 1)) / std::max(std::abs(qr.matrixQR()(0, 0)), 1e-300);
-    if (moves_little(mesh, W, w, F, opt)) return F;
+    if (qr.rank() < m) return G;
+    const Eigen::VectorXd y = qr.solve(b);
+    Eigen::VectorXd x = y.array() * scale.array();
+    if (!x.allFinite()) return G;
+    G.degree = deg;
+    G.c = ruled_coefficients(x, deg, tan_phi, cos_phi);
+    G.points = k;
+    G.support_points = 0;
+    G.rings = S.rings;
+    G.pivot_ratio = std::abs(qr.matrixQR()(m - 1, m - 1)) / std::max(std::abs(qr.matrixQR()(0, 0)), 1e-300);
+    if (moves_little(mesh, W, w, G, opt)) residual = (A * y - b).norm();
+    return G;
+  };
+  // Across the band (phi = 0) at the highest degree the stencil determines...
+  int deg = p;
+  double best = 0;
+  LocalFit B;
+  for (; deg >= 1; --deg) {
+    B = fit_at(0, deg, best);
+    if (std::isfinite(best)) break;
   }
-  return base;
+  if (deg < 1) return base;
+  // ... then along the rulings that fit the band best at that degree, where they fit it much
+  // better (FitOptions::band_ruling_max_deg and what follows it).
+  if (opt.band_ruling_max_deg > 0 && k >= 2 * deg + opt.band_ruling_spare_points) {
+    const LocalFit across = B;
+    const double across_residual = best;
+    const double step = opt.band_ruling_step_deg * std::numbers::pi / 180, most = opt.band_ruling_max_deg * std::numbers::pi / 180;
+    double at = 0;
+    for (double phi = -most; phi <= most + 1e-12; phi += step) {
+      double res = 0;
+      LocalFit G = fit_at(phi, deg, res);
+      if (res < best) best = res, B = std::move(G), at = phi;
+    }
+    double lo = std::max(at - step, -most), hi = std::min(at + step, most);
+    const double g = (std::sqrt(5.0) - 1) / 2;
+    for (int it = 0; it < opt.band_ruling_refinements; ++it) {
+      const double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+      double r1 = 0, r2 = 0;
+      LocalFit G1 = fit_at(x1, deg, r1), G2 = fit_at(x2, deg, r2);
+      if (r1 < best) best = r1, B = std::move(G1);
+      if (r2 < best) best = r2, B = std::move(G2);
+      if (r1 <= r2) hi = x2;
+      else lo = x1;
+    }
+    if (!(best <= opt.band_ruled_residual) || !(best <= opt.band_ruling_gain * across_residual)) return across;
+  }
+  return B;
 }
 
 long long refit_band_wedges(const Mesh& mesh, const Topology& T, const Wedges& W,

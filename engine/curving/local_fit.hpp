@@ -133,6 +133,30 @@ struct FitOptions {
   /// fits keep degree p: at degree 4 for P6, the validity repair of a cap-fan sliver pulled a
   /// second arc edge off the stadium rim in test_solf_features.)
   int feature_max_degree = 4;
+  /// Band wedges (band_fit.hpp) are also fitted along rulings up to this angle (degrees) from the
+  /// direction across the band, and the ruled fit with the least residual is kept where it fits
+  /// much better than the one across (0: across only). Scanned in band_ruling_step_deg steps, then
+  /// refined by band_ruling_refinements golden-section steps round the best. Why: a cone's rulings
+  /// meet a rim that is no circle about its axis obliquely (T20's nut chamfer between its top
+  /// circle and the hex flats' hyperbolas: fits across the band 2.4e-2 off, along the rulings
+  /// 2.5e-4). Beyond 60 degrees a ruling runs along the rim more than 1.7 band widths.
+  double band_ruling_max_deg = 45;
+  double band_ruling_step_deg = 5;
+  int band_ruling_refinements = 8;
+  /// ... kept where its weighted residual (units of the local edge length h) is at most
+  /// band_ruled_residual, the band being ruled along them (T20's chamfer at d/20 / d/40: 4e-5 /
+  /// 2e-5), and at most band_ruling_gain x the fit's across the band (T20: 0.03 - 0.3). Without
+  /// them, bands that are no ruled surface (scans' and CAD exports' revolved profiles, 5e-3 - 5e-2
+  /// along the best rulings, 0.1 - 0.3 across) or planar ones (any rulings fit to rounding) took
+  /// rulings that only fit the noise: deviation from the input king 0.50% -> 1.47%, t13 1.3% ->
+  /// 2.2%, ktoolcav 0.76% -> 1.9%; with them those are unchanged.
+  double band_ruled_residual = 1e-3;
+  double band_ruling_gain = 0.5;
+  /// ... and only from stencils with this many points more than the ruled fit's unknowns (the
+  /// angle is one more): bunny_closed's band stencils of 8 points for 8 unknowns, or 5 for 4, took
+  /// any rulings, which moved the coarse lifting's dense surface (its re-decimated deviation 0.57%
+  /// -> 0.72%). T20's chamfer stencils: 11 points for 8.
+  int band_ruling_spare_points = 3;
   /// Fits above min_degree (P5, P6) whose pivot ratio is below this refit at min_degree: their
   /// top coefficients are barely determined and the fit wiggles between the points (CAD screw
   /// near the slot, pivots ~1e-3: 8x the degree-4 fit's error; on the torus at h = 0.2 they are

@@ -24,7 +24,9 @@ struct ValidityOptions {
   /// shapes and the screw unchanged. Not for invalid elements, whose nodes are suspect (bulging
   /// fits): there the larger steps smooth more, and bisection measured worse (P4 deviation from
   /// the input: ktoolcav 0.84 -> 0.93%, hinge 0.43 -> 0.44%; coarse lifting at 4%, after the
-  /// re-decimation rounds, 6 of 9 shared meshes worse: armadillo 0.338 -> 0.441%).
+  /// re-decimation rounds, 6 of 9 shared meshes worse: armadillo 0.338 -> 0.441%). Except, where
+  /// bisect is on, invalid elements that fail at their corners only, and there barely: two sides
+  /// leaving a corner along one tangent, as where two feature curves touch (T20's nut chamfer).
   bool bisect = true;
   int max_shrink_steps = 30;    ///< repair: after this the element's nodes go fully straight
   /// repair: valid elements whose min J / J_straight is at or below this also move toward straight
