@@ -389,13 +389,14 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
   // --- 5. one-edge gaps at the free ends of the creases left ---------------------------------
   if (kink_test && opt.crease_gap_ratio > 0) {
     std::vector<int> gap;
+    std::vector<std::pair<int, int>> short_gaps;  // (curve, gap edge) of the shorter creases
     for (int u = 0; u < nv; ++u) {
       int last = -1, k = 0;  // u's feature edges: one, sharp, for a crease's free end
       for (auto [b, end] = T.edges_of(u); b != end; ++b)
         if (R.edge_feature[*b]) last = *b, ++k;
-      if (k != 1 || !only_sharp[last] ||
-          static_cast<int>(R.curves[R.edge_curve[last]].size()) - 1 < 2 * opt.min_dangling_edges)
-        continue;
+      if (k != 1 || !only_sharp[last]) continue;
+      const int length = static_cast<int>(R.curves[R.edge_curve[last]].size()) - 1;
+      if (length < opt.min_dangling_edges) continue;
       const Eigen::Vector3d x = mesh.V.row(u).transpose();
       const Eigen::Vector3d in = x - mesh.V.row(T.other(last, u)).transpose();
       int best = -1;
@@ -410,8 +411,22 @@ Features detect_features(const Mesh& mesh, const Topology& T, const FeatureOptio
         const double turn = angle_deg(in, mesh.V.row(w).transpose() - x);
         if (on_curve >= 2 && turn <= best_turn) best = e, best_turn = turn;
       }
-      if (best >= 0) gap.push_back(best);
+      if (best < 0) continue;
+      if (length >= 2 * opt.min_dangling_edges) gap.push_back(best);
+      else short_gaps.emplace_back(R.edge_curve[last], best);
     }
+    // A shorter crease only where it ends one edge short of other curves at both ends: a CAD face's
+    // border between two junctions whose end edges the kink test missed (a chamfer vanishing where
+    // its rims touch: a nut's 30-degree chamfer at h = 0.25, P4 8.2e-3, 3x its linear error, until
+    // both its top circle's end edges were closed: 5.6e-5). Open at one end, as scans' fragments
+    // are: with those closed, boot's deviation from the input 0.306 -> 0.324%.
+    std::sort(short_gaps.begin(), short_gaps.end());
+    for (size_t i = 0; i + 1 < short_gaps.size(); ++i)
+      if (short_gaps[i].first == short_gaps[i + 1].first && short_gaps[i].second != short_gaps[i + 1].second) {
+        gap.push_back(short_gaps[i].second);
+        gap.push_back(short_gaps[i + 1].second);
+        ++i;
+      }
     for (int e : gap)
       if (!R.edge_feature[e]) R.edge_feature[e] = 1, ++R.sharp_edges, ++R.gap_edges, ++R.feature_edges;
     if (!gap.empty()) chain_all();
