@@ -1477,43 +1477,41 @@ Dist chamfered_nut_distance() {
   };
 }
 
-TEST_CASE("a chamfer vanishing where its rims touch: the elements there keep their curvature") {
-  // Where the nut's top circle touches a flat, the chamfer between them ends in a cusp: its rims
-  // (the circle and the flat's hyperbola) leave that corner along one tangent, so an element with
-  // a corner there and sides on both rims has J = 0 at it, and placed well, J / J_straight -0.003.
-  // Pulled 20% toward straight (the fixed step for invalid elements), each such element lost 20%
-  // of its circle side's curvature: P4 2.8e-4 at h = 0.17, 4.9x below linear; bisected (it fails
-  // at its corners only), 1.4e-5.
-  const Mesh m = chamfered_nut_mesh(0.17);
+/// The nut of chamfered_nut_mesh(h) curved at P4 (default options), and its P4 and linear errors.
+struct NutCase {
+  Mesh m;
+  CurveResult r;
+  double p4 = 0, linear = 0;
+};
+NutCase curve_nut(double h) {
+  NutCase c{chamfered_nut_mesh(h)};
   const Dist dist = chamfered_nut_distance();
   CurveOptions o;
   o.order = 4;
-  const CurveResult R = curve_mesh(m, o);
+  c.r = curve_mesh(c.m, o);
   o.order = 1;
   o.method = CurveOptions::Method::Linear;
-  const double err = surface_error(R.mesh, dist), err_linear = surface_error(curve_mesh(m, o).mesh, dist);
-  MESSAGE(m.num_faces() << " triangles, " << R.validity.invalid_before << " invalid before repair: P4 " << err
-                        << "; linear " << err_linear);
-  CHECK(R.validity.invalid_before > 0);
-  CHECK(err * 50 <= err_linear);
-  check_result(m, R);
+  c.p4 = surface_error(c.r.mesh, dist), c.linear = surface_error(curve_mesh(c.m, o).mesh, dist);
+  return c;
 }
 
-TEST_CASE("a coarse chamfer's rim: a crease one edge short of a junction at both ends is closed") {
-  // The nut at h = 0.25: the kink test finds its top circle (30 degrees, below angle_deg) but for the
-  // end edges at the cusps, whose stencils reach round them; a crease that short (3 edges) was left
-  // open, and the fits crossed the gaps: P4 8.2e-3, 3x its linear error. Closed at both ends: 5.6e-5.
-  const Mesh m = chamfered_nut_mesh(0.25);
-  const Dist dist = chamfered_nut_distance();
-  CurveOptions o;
-  o.order = 4;
-  const CurveResult R = curve_mesh(m, o);
-  o.order = 1;
-  o.method = CurveOptions::Method::Linear;
-  const double err = surface_error(R.mesh, dist), err_linear = surface_error(curve_mesh(m, o).mesh, dist);
-  MESSAGE(m.num_faces() << " triangles, " << R.features.gap_edges << " gap edges closed: P4 " << err << "; linear "
-                        << err_linear);
-  CHECK(R.features.gap_edges > 0);
-  CHECK(err * 20 <= err_linear);
-  check_result(m, R);
+TEST_CASE("a hex nut's 30-degree chamfer, vanishing where its rims touch: curved along them") {
+  // h = 0.17: where the nut's top circle touches a flat, the chamfer between them ends in a cusp:
+  // its rims (the circle and the flat's hyperbola) leave that corner along one tangent, so an
+  // element with a corner there and sides on both rims has J = 0 at it, and placed well,
+  // J / J_straight -0.003. Pulled 20% toward straight (the fixed step for invalid elements), each
+  // such element lost 20% of its circle side's curvature: P4 2.8e-4, 4.9x below linear; bisected
+  // (it fails at its corners only), 1.4e-5.
+  // h = 0.25: the kink test finds the top circle (30 degrees, below angle_deg) but for the end
+  // edges at the cusps, whose stencils reach round them; a crease that short (3 edges) was left
+  // open and the fits crossed the gaps: P4 8.2e-3, 3x its linear error; closed at both ends, 2.8e-5.
+  for (const double h : {0.17, 0.25}) {
+    const NutCase c = curve_nut(h);
+    MESSAGE("h = " << h << ", " << c.m.num_faces() << " triangles, " << c.r.validity.invalid_before
+                   << " invalid before repair, " << c.r.features.gap_edges << " gap edges closed: P4 " << c.p4
+                   << "; linear " << c.linear);
+    CHECK((h < 0.2 ? c.r.validity.invalid_before : c.r.features.gap_edges) > 0);
+    CHECK(c.p4 * (h < 0.2 ? 50 : 20) <= c.linear);
+    check_result(c.m, c.r);
+  }
 }
