@@ -124,8 +124,9 @@ LocalFit fit_band_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, co
   const double h = base.h;
   const double sigma = std::max(opt.sigma_factor * h, opt.sigma_reach * sd[std::min(k, so.target_points - 1) - 1]);
 
-  // Rulings at angle phi to t2 (toward t1): coordinates s along t1, r along the ruling.
-  auto fit_at = [&](double phi, int deg, double& residual) {
+  // Rulings at angle phi to t2 (toward t1): coordinates s along t1, r along the ruling. checked:
+  // the residual is infinite unless the fit moves_little (the search checks only its winner).
+  auto fit_at = [&](double phi, int deg, double& residual, bool checked = true) {
     LocalFit G = F;
     residual = std::numeric_limits<double>::infinity();
     const int m = 2 * deg;
@@ -164,7 +165,7 @@ LocalFit fit_band_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, co
     G.support_points = 0;
     G.rings = S.rings;
     G.pivot_ratio = std::abs(qr.matrixQR()(m - 1, m - 1)) / std::max(std::abs(qr.matrixQR()(0, 0)), 1e-300);
-    if (moves_little(mesh, W, w, G, opt)) residual = (A * y - b).norm();
+    if (!checked || moves_little(mesh, W, w, G, opt)) residual = (A * y - b).norm();
     return G;
   };
   // Across the band (phi = 0) at the highest degree the stencil determines...
@@ -185,7 +186,7 @@ LocalFit fit_band_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, co
     double at = 0;
     for (double phi = -most; phi <= most + 1e-12; phi += step) {
       double res = 0;
-      LocalFit G = fit_at(phi, deg, res);
+      LocalFit G = fit_at(phi, deg, res, false);
       if (res < best) best = res, B = std::move(G), at = phi;
     }
     double lo = std::max(at - step, -most), hi = std::min(at + step, most);
@@ -193,13 +194,15 @@ LocalFit fit_band_wedge(const Mesh& mesh, const Topology& T, const Wedges& W, co
     for (int it = 0; it < opt.band_ruling_refinements; ++it) {
       const double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
       double r1 = 0, r2 = 0;
-      LocalFit G1 = fit_at(x1, deg, r1), G2 = fit_at(x2, deg, r2);
+      LocalFit G1 = fit_at(x1, deg, r1, false), G2 = fit_at(x2, deg, r2, false);
       if (r1 < best) best = r1, B = std::move(G1);
       if (r2 < best) best = r2, B = std::move(G2);
       if (r1 <= r2) hi = x2;
       else lo = x1;
     }
-    if (!(best <= opt.band_ruled_residual) || !(best <= opt.band_ruling_gain * across_residual)) return across;
+    if (!(best <= opt.band_ruled_residual) || !(best <= opt.band_ruling_gain * across_residual) ||
+        !moves_little(mesh, W, w, B, opt))
+      return across;
   }
   return B;
 }

@@ -141,8 +141,8 @@ struct FitOptions {
   /// circle and the hex flats' hyperbolas: fits across the band 2.4e-2 off, along the rulings
   /// 2.5e-4). Beyond 60 degrees a ruling runs along the rim more than 1.7 band widths.
   double band_ruling_max_deg = 45;
-  double band_ruling_step_deg = 5;
-  int band_ruling_refinements = 8;
+  double band_ruling_step_deg = 10;
+  int band_ruling_refinements = 6;
   /// ... kept where its weighted residual (units of the local edge length h) is at most
   /// band_ruled_residual, the band being ruled along them (T20's chamfer at d/20 / d/40: 4e-5 /
   /// 2e-5), and at most band_ruling_gain x the fit's across the band (T20: 0.03 - 0.3). Without
