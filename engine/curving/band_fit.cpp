@@ -41,11 +41,11 @@ int monomial_index(int j, int k) {
 /// x_(deg+j) s^j, with s = u - tan_phi v along the curve and r = v / cos_phi along the rulings.
 Eigen::VectorXd ruled_coefficients(const Eigen::VectorXd& x, int deg, double tan_phi, double cos_phi) {
   Eigen::VectorXd c = Eigen::VectorXd::Zero(fit_coefficients(deg));
-  // s^n = sum_i C(n, i) u^(n - i) (-tan_phi v)^i
+  // s^n v^extra_v = sum_i C(n, i) u^(n - i) (-tan_phi)^i v^(i + extra_v) (n + extra_v >= 1: no constant)
   auto add_power = [&](int n, int extra_v, double coef) {
     double binom = 1, t = 1;
     for (int i = 0; i <= n; ++i) {
-      if (n - i + i + extra_v > 0) c[monomial_index(n - i, i + extra_v)] += coef * binom * t;
+      c[monomial_index(n - i, i + extra_v)] += coef * binom * t;
       binom = binom * (n - i) / (i + 1);
       t *= -tan_phi;
     }

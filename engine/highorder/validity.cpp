@@ -482,17 +482,16 @@ ValidityReport repair_pass(HighOrderMesh& hm, const JacobianBasis& basis, const 
   // opt.shrink; an edge shared by two invalid faces takes the smaller factor); after
   // max_shrink_steps rounds a face goes fully straight. Set-based, so the result does not depend
   // on the processing order.
+  // A face's way (bisected or fixed steps) is decided when it first fails.
   std::vector<char> bisect(nf, opt.bisect);
-  if (!opt.bisect && corner_folds)
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, bad.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
-      Workspace ws(basis, opt.max_subdivisions);
-      for (size_t i = r.begin(); i != r.end(); ++i) bisect[bad[i]] = fails_at_corners_only(hm, bad[i], basis, opt, ws);
-    });
   while (!bad.empty()) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, bad.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
       Workspace ws(basis, opt.max_subdivisions);
-      for (size_t i = r.begin(); i != r.end(); ++i)
-        if (bisect[bad[i]]) scale[bad[i]] = largest_valid_scale(hm, bad[i], ref, basis, opt, ws);
+      for (size_t i = r.begin(); i != r.end(); ++i) {
+        const int f = bad[i];
+        if (corner_folds && !opt.bisect && steps[f] == 0) bisect[f] = fails_at_corners_only(hm, f, basis, opt, ws);
+        if (bisect[f]) scale[f] = largest_valid_scale(hm, f, ref, basis, opt, ws);
+      }
     });
     std::vector<int> touched_edges;
     for (int f : bad) {
