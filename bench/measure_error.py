@@ -135,10 +135,12 @@ class StepDistance:
 
     Candidate faces per element: the CAD faces of the input triangles around its three vertices
     (from the STL's .faces.npz sidecar); the distance is the minimum over their underlying
-    surfaces. Elements whose vertices are not found there (moved) fall
+    surfaces. own_face=True: an element whose three vertices make an input triangle is measured
+    against that triangle's CAD face alone (a point beside a fillet is not credited with the
+    neighbouring plane). Elements whose vertices are not found there (moved) fall
     back to the minimum over every face whose bounding box, grown by `margin`, holds the point."""
 
-    def __init__(self, name, sidecar=None):
+    def __init__(self, name, sidecar=None, own_face=False):
         gmsh = shapes.gmsh_init()
         self.model = shapes.build_occ(name, "dist_" + name)
         self.faces = [t for _, t in gmsh.model.getEntities(2)]
@@ -161,6 +163,7 @@ class StepDistance:
                     self.vertex_uv[(int(v), int(f))] = uv
             self.vertex_faces = vf
             self.V = V
+            self.tri_face = {tuple(sorted(map(int, t))): int(f) for t, f in zip(F, face)} if own_face else {}
             self.margin = 2.0 * float(d["h"])
 
     def element_faces(self, Xv):
@@ -181,7 +184,10 @@ class StepDistance:
                     ok = False
                     break
                 self.last_vertices[e, k] = i
-            if ok:
+            own = self.tri_face.get(tuple(sorted(map(int, self.last_vertices[e])))) if ok else None
+            if own is not None:
+                M[e, col[own]] = True
+            elif ok:
                 for i in self.last_vertices[e]:
                     for f in self.vertex_faces[i]:
                         M[e, col[f]] = True
@@ -332,8 +338,8 @@ def _vkey(V):
         .reshape(len(V), 12)
 
 
-def distance_function(name, stl=None):
-    """Return f(P, elem_vertices) -> distances for shape `name`."""
+def distance_function(name, stl=None, own_face=False):
+    """Return f(P, elem_vertices) -> distances for shape `name` (own_face: see StepDistance)."""
     spec = shapes.SHAPES[name]
     k = spec["kind"]
     if k == "sphere":
@@ -344,7 +350,7 @@ def distance_function(name, stl=None):
         return lambda P, Xv=None: dist_ellipsoid(P, spec["axes"])
     if k == "cylinder":
         return lambda P, Xv=None: dist_cylinder(P, spec["radius"], spec["height"])
-    sd = StepDistance(name, shapes.sidecar_path(stl) if stl else None)
+    sd = StepDistance(name, shapes.sidecar_path(stl) if stl else None, own_face)
 
     def f(P, Xv=None, uv=None):
         # Gauss-Newton needs good start parameters; without the sidecar's, use OCC directly
@@ -366,6 +372,7 @@ def distance_function(name, stl=None):
             d[ps] = sd(P[ps])
         return d
     f.step = True
+    f.sd = sd
     return f
 
 
@@ -392,11 +399,12 @@ def edge_check(conn, order):
 
 
 # ----------------------------------------------------------------------------- measure
-def measure(path, name, stl=None, q=None, chunk=20000, dist=None):
+def measure(path, name, stl=None, q=None, chunk=20000, dist=None, per_element=False):
     """Sample every element of `path` and measure its distance to shape `name`.
 
     Returns a dict with max/rms error over all samples, element count, watertightness and the
-    number of elements whose sampled Jacobian (x_u x x_v) . n_straight is <= 0."""
+    number of elements whose sampled Jacobian (x_u x x_v) . n_straight is <= 0. per_element: also
+    "element_max" (E,), each element's largest sampled distance, and "corners" (E, 3, 3)."""
     m = read_triangles(path)
     t, p, X = m["type"], m["order"], m["X"]
     if q is None:
@@ -409,6 +417,7 @@ def measure(path, name, stl=None, q=None, chunk=20000, dist=None):
     E = len(X)
     npts = len(uv)
     dmax, sq, nsamp = 0.0, 0.0, 0
+    all_max = []
     worst = -1
     nonpos = 0
     min_ratio = np.inf
@@ -430,6 +439,8 @@ def measure(path, name, stl=None, q=None, chunk=20000, dist=None):
             d = dist(flat)
         d = d.reshape(len(Xe), npts)
         emax = d.max(1)
+        if per_element:
+            all_max.append(emax)
         i = int(emax.argmax())
         if emax[i] > dmax:
             dmax, worst = float(emax[i]), s + i
@@ -441,6 +452,9 @@ def measure(path, name, stl=None, q=None, chunk=20000, dist=None):
            "worst_element": int(m["tags"][worst]) if worst >= 0 else None,
            "nonpositive_jacobian": nonpos, "min_jacobian_ratio": min_ratio}
     res.update(edge_check(m["conn"], p))
+    if per_element:
+        res["element_max"] = np.concatenate(all_max) if all_max else np.zeros(0)
+        res["corners"] = X[:, :3]
     return res
 
 

@@ -55,6 +55,19 @@ def step_path(name):
     return os.path.join(SHARED, "meshes", SHAPES[name]["file"])
 
 
+def add_step_parts():
+    """Register every STEP solid of the shared CAD folder as a shape named after its file; returns
+    the names, sorted."""
+    names = []
+    folder = os.path.join(SHARED, "meshes", "cad")
+    for f in sorted(os.listdir(folder)) if os.path.isdir(folder) else []:
+        if f.lower().endswith((".step", ".stp")):
+            name = os.path.splitext(f)[0]
+            SHAPES.setdefault(name, {"kind": "step", "file": "cad/" + f})
+            names.append(name)
+    return names
+
+
 def build_occ(name, model_name=None):
     """Create the exact CAD of `name` in a new Gmsh model (made current) and return the model name."""
     gmsh = gmsh_init()
@@ -100,32 +113,35 @@ def size_label(size):
     return str(size).replace("/", "")
 
 
-def mesh_occ(name, h):
-    """Build the CAD of `name` in a new current model and mesh its surfaces at size h (linear)."""
+def mesh_occ(name, h, curvature=0):
+    """Build the CAD of `name` in a new current model and mesh its surfaces at size h (linear).
+    curvature > 0: also size from the curvature (that many elements per 2 pi radians, no lower
+    size bound), as CAD users often mesh."""
     gmsh = gmsh_init()
     m = build_occ(name)
-    gmsh.option.setNumber("Mesh.MeshSizeMin", h)
+    gmsh.option.setNumber("Mesh.MeshSizeMin", 0 if curvature else h)
     gmsh.option.setNumber("Mesh.MeshSizeMax", h)
-    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", curvature)
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
     gmsh.option.setNumber("Mesh.HighOrderOptimize", 0)
     gmsh.model.mesh.generate(2)
     return m
 
 
-def make_stl(name, size, outdir=DEFAULT_OUT, ascii=False):
+def make_stl(name, size, outdir=DEFAULT_OUT, ascii=False, curvature=0):
     """Return the path of the binary STL of shape `name` at SIZES entry `size`, creating it if absent.
 
     ascii=True writes ASCII STL with full double precision (binary STL rounds vertices to float32,
     ~5e-8 on the unit sphere, which floors the achievable error). Next to it, NAME.faces.npz keeps the CAD face tag of every triangle (used to measure distances
     to STEP parts face by face) and the mesh size h."""
     os.makedirs(outdir, exist_ok=True)
-    path = os.path.join(outdir, "%s_%s%s.stl" % (name, size_label(size), "_ascii" if ascii else ""))
+    path = os.path.join(outdir, "%s_%s%s%s.stl" % (name, size_label(size), "_c%d" % curvature if curvature else "",
+                                                   "_ascii" if ascii else ""))
     if os.path.exists(path) and os.path.exists(sidecar_path(path)):
         return path
     gmsh = gmsh_init()
     h = size_value(name, size)
-    mesh_occ(name, h)
+    mesh_occ(name, h, curvature)
     tags, xyz, _ = gmsh.model.mesh.getNodes()
     lookup = np.zeros(int(tags.max()) + 1, dtype=np.int64)
     lookup[tags.astype(np.int64)] = np.arange(len(tags))
