@@ -1,6 +1,7 @@
 # Two commands do all the set-up on a fresh Debian 12 machine:
 #   make run    install dependencies, build, start the main job
 #   make test   install dependencies, build, run every test with ctest
+# make bench runs the main benchmarks and rewrites the tables of bench/README.md (bench/run_all.sh).
 BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
@@ -25,6 +26,11 @@ test-asan: deps
 	cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" -DHOCURVE_SANITIZE=ON
 	cmake --build build-asan -j $(JOBS)
 	cd build-asan && ASAN_OPTIONS=detect_leaks=0 ctest --output-on-failure -j $(JOBS) -LE "python|slow"
+
+# The main benchmarks in one go, from one build: outputs in bench/results/, tables into bench/README.md.
+# BENCH_ARGS=--all adds the long sweeps; BENCH_ARGS=--no-readme leaves bench/README.md alone.
+bench: build
+	bash bench/run_all.sh $(BUILD) $(BENCH_ARGS)
 
 clean:
 	rm -rf $(BUILD) build-asan

@@ -2,10 +2,10 @@
 """Generality sweep: CAD shapes that no option was tuned on, curved from Gmsh's STL at P1..P6.
 
 Each shape is built with Gmsh's OpenCASCADE kernel (a cone with its apex, a box with filleted edges,
-a cylinder with a cross hole, a sphere cut by a plane, half a torus; added in session 18, after the
-tangent-junction test was set: a capsule and a cylinder with filleted rims; in session 25 three open surfaces,
-whose rims are boundary curves: a hemisphere, a pipe and a quarter torus; the lists COARSE, FREEFORM and
-UNSEEN name more, run when named), meshed by Gmsh at size h, written
+a cylinder with a cross hole, a sphere cut by a plane, half a torus, a capsule and a cylinder with
+filleted rims (tangent junctions); three open surfaces, whose rims are boundary curves: a hemisphere,
+a pipe and a quarter torus; the lists COARSE, FREEFORM and UNSEEN name more, run when named), meshed
+by Gmsh at size h, written
 as STL, curved by `hocurve curve --order p`, and measured against the exact CAD: the largest distance
 from the element's own Lagrange map, sampled on a degree max(2p, 6) lattice, to the closest of the
 model's surfaces (gmsh.model.getClosestPoint). Also reported: the largest distance per CAD surface
@@ -37,19 +37,19 @@ from bench import measure_error as me  # noqa: E402
 from bench import shapes  # noqa: E402
 
 SHAPES = ["cone", "filletbox", "crosshole", "cutsphere", "halftorus", "capsule", "roundcyl"]
-# Since session 29, mostly for Gmsh's own sizes (--sizes default): coarse meshes of CAD quadrics.
+# COARSE: coarse meshes of CAD quadrics, mostly run at Gmsh's own sizes (--sizes default).
 COARSE = ["tee", "drilledball", "frustum", "ellipsoid"]
-# Session 35: free-form B-spline surfaces (no exact quadric or cyclide holds them): a loft through
+# FREEFORM: free-form B-spline surfaces (no exact quadric or cyclide holds them): a loft through
 # three unlike sections, and a torus stretched unevenly.
 FREEFORM = ["loft", "squashedtorus"]
-# Session 40: shapes no option was run on before they were added: a vase (a spline profile revolved), a cam
+# UNSEEN: shapes no option was tuned on: a vase (a spline profile revolved), a cam
 # (a closed spline extruded: a ruled B-spline side), a twisted prism (a square lofted onto its 45-degree turn), a
 # box with chamfered edges, a plate with holes, spherical caps out of a block, a knob with a rounded end; then an
 # elbow (two cylinders and a quarter torus), a spherical pocket in a block, a stadium prism, a cone on a
 # cylinder with an oblique hole, an elliptic cylinder.
 UNSEEN = ["vase", "cam", "twist", "chamferbox", "holeplate", "dome", "knob", "elbow", "pocket", "stadium", "conecyl",
           "ellipcyl"]
-# Open surfaces (session 25): the solid's planar faces removed, their rims left as boundary curves.
+# OPEN: open surfaces, the solid's planar faces removed, their rims left as boundary curves.
 OPEN = ["hemisphere", "pipe", "quartertorus"]
 
 

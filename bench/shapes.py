@@ -243,7 +243,7 @@ def icosphere(n):
 
 
 def make_speed_sphere(outdir=DEFAULT_OUT):
-    """~200k-triangle Gmsh sphere (h=0.0122, like gmsh.md §11) as binary STL."""
+    """~200k-triangle Gmsh sphere (h=0.0122) as binary STL."""
     return make_stl("sphere", 0.0122, outdir)
 
 

@@ -1,6 +1,6 @@
 // Joint conformal (LSCM) flattening of the patch around one edge collapse, before and after,
 // onto one planar domain with a shared boundary (Liu et al. 2021, "Surface Multigrid via
-// Intrinsic Prolongation", re-implemented from the description in shared/reference/multigrid.md).
+// Intrinsic Prolongation", re-implemented from the paper; docs/algorithm.md, section 9).
 #pragma once
 #include <Eigen/Core>
 

@@ -17,7 +17,7 @@ namespace hocurve {
 
 /// Row weights of the least-squares system.
 /// Gaussian: exp(-d^2 / 2 sigma^2) (the SOLF paper's MLS weight);
-/// InverseDistance: (d^2 / mean d^2 + 0.01)^(-p/2) (MOAB's WALF weight, fitting.md section 2).
+/// InverseDistance: (d^2 / mean d^2 + 0.01)^(-p/2) (MOAB's WALF weight).
 enum class WeightKind { Gaussian, InverseDistance };
 
 struct FitOptions {
@@ -200,7 +200,7 @@ struct FitOptions {
   /// degree 3: sphere 2x worse; P4 on degree 5: ellipsoid 2.5x better but T20 d/40 2x worse and the
   /// ellipsoid's order 4.5).
   int min_degree = 4;
-  /// Degree reduction (fitting.md 2.7): a degree-d block that changes by more than
+  /// Degree reduction (WALF's safeguard): a degree-d block that changes by more than
   /// safeguard_tol (in units of h) and by >= 105 % of itself when the fit is truncated at
   /// degree d lowers the degree. Skipped when the stencil has >= safeguard_skip x #coefficients
   /// points (well-determined fits on fine meshes: the check only loses accuracy there).
@@ -212,7 +212,7 @@ struct FitOptions {
   /// Support points (only in fits short of vertices): row weight support_weight x their
   /// Gaussian weight, lifted first onto the minimum-norm rank-truncated (at support_condition)
   /// degree-p fit of the vertices. Raw facet samples (support_lift = false) cap the error at
-  /// O(h^2) (fitting.md section 6); lifted ones cannot where the vertices determine the fit.
+  /// O(h^2) (docs/algorithm.md, section 3); lifted ones cannot where the vertices determine the fit.
   double support_weight = 0.1;
   bool support_lift = true;
   /// A fit is short of vertices (and takes support points when they are enabled) when its
@@ -222,7 +222,7 @@ struct FitOptions {
   double support_condition = 1e-4;
   int short_fit_degree = 2;
   bool support_everywhere = false;  ///< testing: add support points to every fit, not only short ones
-  /// Sanity bound (fitting.md 2.7, suggested extra): a fit that moves a point of its wedge's
+  /// Sanity bound (beyond WALF's safeguards): a fit that moves a point of its wedge's
   /// faces by more than max_offset x sqrt(2 x face area) is refitted one degree lower, down to
   /// the straight triangles. Catches extrapolating fits on CAD needles and thin parts.
   double max_offset = 0.5;
@@ -370,7 +370,7 @@ FitReference quadric_reference(const Eigen::Vector3d& o, const Eigen::Vector3d& 
 FitReference reference_surface(const Eigen::Vector3d& o, const Eigen::Vector3d& n, const Eigen::MatrixXd& P,
                                const Eigen::VectorXd& w, Eigen::Vector3d* normal = nullptr);
 
-/// Orthonormal tangent pair for a unit normal (fitting.md 2.2).
+/// Orthonormal tangent pair for a unit normal.
 void tangent_frame(const Eigen::Vector3d& n, Eigen::Vector3d& t1, Eigen::Vector3d& t2);
 
 /// The weighted least-squares system of a height fit as built (before column scaling): row i is

@@ -16,7 +16,7 @@
 namespace hocurve {
 
 /// Surface point for barycentric coordinates xi of face f: x = sum xi_j X_j pushed onto each
-/// corner's wedge fit, blended with weights xi (fitting.md section 3).
+/// corner's wedge fit, blended with weights xi (WALF; docs/algorithm.md, section 6).
 /// face_fit (may be null): an exact fit that holds face f (face_exact_fits), used instead.
 Eigen::Vector3d blend_point(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits,
                             int f, const Eigen::Vector3d& xi, const LocalFit* face_fit = nullptr);

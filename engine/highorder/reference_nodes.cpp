@@ -23,7 +23,7 @@ void check_order(int p, const char* what) {
 using Tri = std::array<int, 2>;
 using Tet = std::array<int, 3>;
 
-// Gmsh's recursive triangle rule (gmsh.md §3): vertices, edges 0->1, 1->2, 2->0 each walked
+// Gmsh's recursive triangle rule (as Gmsh 4.8 orders its nodes): vertices, edges 0->1, 1->2, 2->0 each walked
 // from its first vertex, then the order-(p-3) triangle shifted by (1,1). p = 0 is one point.
 std::vector<Tri> tri_lattice_rec(int p) {
   if (p == 0) return {Tri{0, 0}};

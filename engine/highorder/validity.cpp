@@ -141,7 +141,7 @@ Range range_of(const double* b, int n) {
   return r;
 }
 
-// Decision rule of fitting.md §8 on coefficients b (scaled). On VALID, lo/hi are folded with
+// Decision rule of Johnen et al. 2013 (docs/algorithm.md, section 7) on coefficients b (scaled). On VALID, lo/hi are folded with
 // the leaves' bounds. `deepest` records the deepest level visited.
 bool classify(const JacobianBasis& B, const double* b, int depth, int cap, double thr, Workspace& ws, double& lo,
               double& hi, int& deepest) {

@@ -1,7 +1,7 @@
 // Streaming Gmsh .msh writer for high-order triangle meshes (MSH 4.1 and 2.2, ASCII and
 // binary). Pure function of the mesh: no Gmsh, no global state, safe to call from any thread.
 //
-// Layout (gmsh.md §4-6): $MeshFormat, [$HocurveInfo], [$PhysicalNames], [$Entities] (4.1),
+// Layout (Gmsh's MSH 4.1 and 2.2 file formats): $MeshFormat, [$HocurveInfo], [$PhysicalNames], [$Entities] (4.1),
 // $Nodes, $Elements.
 // - Nodes: every node in global index order (tags 1..N = all_nodes(hm) rows + 1). In 4.1 they
 //   form one block on the first surface entity (Gmsh and meshio resolve element nodes by tag,

@@ -317,7 +317,7 @@ TEST_CASE("support points do not cap the accuracy (lifted, forced into every fit
   auto lifted = table("ellipsoid, lifted support points in every fit", meshes, ps, ellipsoid, forced);
   check_rates(lifted, ps);
   for (size_t k = 0; k < ps.size(); ++k) CHECK(lifted.back().err[k] <= 1.5 * plain.back().err[k]);
-  // The trap this avoids (fitting.md section 6): the same samples used raw, at full weight,
+  // The trap this avoids (docs/algorithm.md, section 3): the same samples used raw, at full weight,
   // cap the error at O(h^2) whatever p is.
   CurveOptions raw = forced;
   raw.fit.support_lift = false;

@@ -41,7 +41,7 @@ def check(cond, what):
 
 def check_harness(work):
     """The harness itself: Gmsh's exact-CAD P4 sphere at h=0.1 must reproduce the independently
-    measured baseline of reference/gmsh.md §11 (3.67e-7), and the conformity check must flag an
+    measured baseline of Gmsh's exact-CAD P4 sphere (3.67e-7), and the conformity check must flag an
     element edge whose high-order node is not shared."""
     stl = shapes.make_stl("sphere", 0.1, work)
     ref_path = os.path.join(work, "harness_ref_p4.msh")
