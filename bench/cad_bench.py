@@ -8,8 +8,8 @@ then, in the same run:
   P2, P4   `hocurve curve STL --order p` (the STL alone: no CAD reaches hocurve),
   REF P4   Gmsh's setOrder(4) of the same triangulation on the exact CAD (nodes on the CAD).
 Each element is measured against its **own CAD face** (the face Gmsh meshed the triangle with the
-same three corners on) at the points of a degree max(2p, 6) lattice, not at its nodes alone
-(bench/measure_error.py: the element's own Lagrange map, OpenCASCADE's exact surface).
+same three corners on) at the points of a degree-5 lattice, which meets no P2 or P4 node but the
+corners (bench/measure_error.py: the element's own Lagrange map, OpenCASCADE's exact surface).
 
 Reported per row: the largest and the median element error; linear / P4 of the largest; elements
 farther from their face than their straight selves by more than 1e-6 of the diagonal ("worse");
@@ -18,9 +18,10 @@ with a non-positive Jacobian ("J<=0") and watertightness. Each part runs in a pr
 Gmsh 4.8.4 aborts on some STEP files while meshing; such a row says so and the run goes on.
 
 Usage: cad_bench.py [--hocurve BIN] [--out DIR] [--parts a,b] [--divisions 40,80]
-                    [--curvature 0,12] [--orders 2,4] [--json FILE] [--timeout S]
+                    [--curvature 0,12] [--orders 2,4] [--q 5] [--jobs 2] [--json FILE] [--timeout S]
 """
 import argparse
+import concurrent.futures
 import json
 import os
 import subprocess
@@ -88,7 +89,7 @@ def run_one(a):
     side = np.load(shapes.sidecar_path(stl))
     planar = planar_faces(name)
     dist = me.distance_function(name, stl, own_face=True)
-    lin = me.measure(stl, name, stl, dist=dist, per_element=True)
+    lin = me.measure(stl, name, stl, q=a.q, dist=dist, per_element=True)
     face = dict(zip(corner_keys(side["V"][side["F"]]), map(int, side["face"])))
     row.update({"h": h, "diagonal": diag, "triangles": lin["elements"], "mesh_seconds": time.time() - t,
                 "linear": dict(slim(lin), median=float(np.median(lin["element_max"])))})
@@ -101,7 +102,7 @@ def run_one(a):
         r = accuracy.run_hocurve(a.hocurve, stl, out, p, st, timeout=a.timeout)
         e = {"rc": r["rc"], "seconds": r["seconds"]}
         if r["rc"] == 0:
-            m = me.measure(out, name, stl, dist=dist, per_element=True)
+            m = me.measure(out, name, stl, q=a.q, dist=dist, per_element=True)
             e.update(slim(m), **compare(lin, m, diag, planar, face))
             e["models"] = (r.get("stats") or {}).get("models")
         else:
@@ -115,7 +116,7 @@ def run_one(a):
         gmsh.option.setNumber("Mesh.Binary", 1)
         gmsh.write(out)
         gmsh.model.remove()
-        m = me.measure(out, name, stl, dist=dist, per_element=True)
+        m = me.measure(out, name, stl, q=a.q, dist=dist, per_element=True)
         row["REF4"] = dict(slim(m), median=float(np.median(m["element_max"])))
     row["seconds"] = time.time() - t
     return row
@@ -124,7 +125,8 @@ def run_one(a):
 def child(a, name, div, curv):
     """Run one row in a child process; a crash or a timeout becomes a row that says so."""
     cmd = [sys.executable, os.path.abspath(__file__), "--one", name, str(div), str(curv), "--out", a.out,
-           "--hocurve", a.hocurve, "--orders", ",".join(map(str, a.orders)), "--timeout", str(a.timeout)]
+           "--hocurve", a.hocurve, "--orders", ",".join(map(str, a.orders)), "--timeout", str(a.timeout),
+           "--q", str(a.q)]
     if a.no_ref:
         cmd.append("--no-ref")
     try:
@@ -136,6 +138,13 @@ def child(a, name, div, curv):
     except subprocess.TimeoutExpired:
         why = "timeout"
     return {"part": name, "size": "d/%d" % div, "curvature": curv, "failed": why[:160]}
+
+
+def report(r):
+    print("%s %s c%d: %s" % (r["part"], r["size"], r["curvature"], r.get("failed") or "linear %.2e, P4 %s, REF %s (%.0f s)" % (
+        r["linear"]["max"], fmt(r.get("P4", {}).get("max")), fmt(r.get("REF4", {}).get("max")), r["seconds"])),
+        flush=True)
+    return r
 
 
 def fmt(x, f="%.2e"):
@@ -190,6 +199,8 @@ def main(argv):
     ap.add_argument("--curvature", default="0,12")
     ap.add_argument("--orders", default="2,4")
     ap.add_argument("--timeout", type=int, default=900, help="seconds per hocurve run")
+    ap.add_argument("--q", type=int, default=5, help="sampling lattice degree")
+    ap.add_argument("--jobs", type=int, default=1, help="rows measured at once (one process each)")
     ap.add_argument("--json")
     ap.add_argument("--no-ref", action="store_true", help="skip Gmsh's exact-CAD P4")
     ap.add_argument("--one", nargs=3, help=argparse.SUPPRESS)
@@ -200,15 +211,10 @@ def main(argv):
         print(json.dumps(run_one(a), default=float))
         return
     parts = a.parts.split(",") if a.parts else shapes.add_step_parts()
-    rows = []
-    for name in parts:
-        for div in map(int, a.divisions.split(",")):
-            for curv in map(int, a.curvature.split(",")):
-                rows.append(child(a, name, div, curv))
-                r = rows[-1]
-                print("%s d/%d c%d: %s" % (name, div, curv, r.get("failed") or "linear %.2e, P4 %s, REF %s (%.0f s)" % (
-                    r["linear"]["max"], fmt(r.get("P4", {}).get("max")), fmt(r.get("REF4", {}).get("max")),
-                    r["seconds"])), flush=True)
+    todo = [(name, div, curv) for name in parts for div in map(int, a.divisions.split(","))
+            for curv in map(int, a.curvature.split(","))]
+    with concurrent.futures.ThreadPoolExecutor(max_workers=a.jobs) as pool:
+        rows = list(pool.map(lambda t: report(child(a, *t)), todo))
     print(table(rows, a.orders))
     if a.json:
         with open(a.json, "w") as f:

@@ -161,6 +161,7 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
                                     R.curve_fits.fits.empty() ? nullptr : &R.curve_fits, p,
                                     opt.distribution, p >= 2 ? &long_edge : nullptr, &planar, &face_fits);
     R.mesh = std::move(P.mesh);
+    R.offset_bound = bound_offsets(mesh, T, W, R.fits.fits, &face_fits, R.mesh, opt.offset_bound);
     R.long_edges = long_edge.edges;
     R.long_edges_placed = P.long_edges;
     R.long_faces = long_edge.faces;

@@ -8,6 +8,7 @@
 #include "engine/curving/features.hpp"
 #include "engine/curving/local_fit.hpp"
 #include "engine/curving/long_edges.hpp"
+#include "engine/curving/offset_bound.hpp"
 #include "engine/curving/planar_patches.hpp"
 #include "engine/curving/support_points.hpp"
 #include "engine/curving/uniformity.hpp"
@@ -33,6 +34,7 @@ struct CurveOptions {
   SupportOptions support;
   FitOptions fit;
   PlanarPatchOptions planar;                       ///< flat CAD faces keep their nodes on their plane
+  OffsetBoundOptions offset_bound;                 ///< offsets their own fits' tangent planes contradict scaled down
   LongEdgeOptions long_edges;                      ///< faces with an edge the fits do not reach: PN triangles
   ValidityOptions validity;
   UntangleOptions untangle;                        ///< before the repair: folded faces' free nodes bent within the surface
@@ -81,6 +83,7 @@ struct CurveResult {
   long long long_edges_placed = 0;  ///< of them, whose end fits disagree: placed on a PN curve (off feature curves)
   long long long_faces = 0;       ///< faces with such an edge: their interior nodes are on their PN triangle
   PlanarPatchResult planar;
+  OffsetBoundResult offset_bound;
   double placement_seconds = 0;
   UntangleResult untangle;
   ValidityReport validity;

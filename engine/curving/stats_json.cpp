@@ -50,6 +50,9 @@ nlohmann::json stats_json(const CurveResult& r) {
                     {"planar_patches", r.planar.patches},
                     {"planar_faces", r.planar.faces},
                     {"planar_max_move", r.planar.max_move},
+                    {"bounded_edges", r.offset_bound.edges},
+                    {"bounded_faces", r.offset_bound.faces},
+                    {"bounded_min_scale", r.offset_bound.min_scale},
                     {"seconds", r.placement_seconds}};
   j["untangle"] = {{"targets", r.untangle.targets},
                    {"patches", r.untangle.patches},
