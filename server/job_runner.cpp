@@ -347,8 +347,14 @@ void JobRunner::run_job(const std::string& id) {
     } else if (st >= 0 && WIFEXITED(st) && WEXITSTATUS(st) == 5) {
       finish("failed", too_big(last_line(logfile)));
       return;
+    } else if (st >= 0 && WIFSIGNALED(st) && !stop()) {
+      // The same input would crash the main run too, with no counts to show for it.
+      finish("failed", make_problem(500, "worker-crashed",
+                                    "the input check (hocurve info) was killed by " + signal_name(WTERMSIG(st)) +
+                                        (last_line(logfile).empty() ? "" : ": " + last_line(logfile))));
+      return;
     }
-    // Anything else (an older worker without `info`, a crash): the main run reports it.
+    // Anything else (an older worker without `info`, a timeout, a cancel): the main run reports it.
   }
 
   std::vector<std::string> args = worker_argv(worker_bin_, job.options, input, part, stats, config_.job_threads);
@@ -516,7 +522,7 @@ void JobRunner::run_job(const std::string& id) {
       // not fit is dropped here, so that disk use stays within the quota and one result.
       const std::uint64_t size = ok ? fs::file_size(part, ec) : 0;
       const auto quota = (std::uint64_t)(config_.max_disk_mb * 1048576);
-      if (ok && store_.disk_bytes() + size > quota) {
+      if (ok && store_.disk_bytes() + store_.reserved_bytes() + size > quota) {
         fs::remove(part, ec);
         finish("failed", make_problem(507, "quota-exceeded",
                                       "the result (" + std::to_string(size / 1024) +
