@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstring>
 #include <fcntl.h>
+#include <iterator>
 #include <netdb.h>
 #include <optional>
 #include <poll.h>
@@ -566,6 +567,14 @@ bool ChunkedFraming::feed(const char* data, std::size_t n) {
   auto ctl = [](unsigned char ch) { return (ch < 0x20 && ch != '\t') || ch == 0x7f; };
   for (std::size_t i = 0; i < n && state_ != kBad && state_ != kDone; ++i) {
     const char ch = data[i];
+    // The states where exactly one byte may come.
+    static constexpr struct { State at; char want; State next; } kFixed[] = {
+        {kDataCr, '\r', kDataLf}, {kDataLf, '\n', kSize}, {kFieldLf, '\n', kFieldStart}, {kLastLf, '\n', kDone}};
+    if (auto f = std::find_if(std::begin(kFixed), std::end(kFixed), [&](const auto& x) { return x.at == state_; });
+        f != std::end(kFixed)) {
+      state_ = ch == f->want ? f->next : kBad;
+      continue;
+    }
     switch (state_) {
       case kSize:
         if (hex(ch) >= 0 && digits_ < 15) {
@@ -596,16 +605,9 @@ bool ChunkedFraming::feed(const char* data, std::size_t n) {
         const std::size_t take = (std::size_t)std::min<unsigned long long>(left_, n - i);
         left_ -= take;
         i += take - 1;
-        if (left_ == 0) state_ = kDataCr;
+        if (left_ == 0) state_ = kDataCr, digits_ = 0;
         break;
       }
-      case kDataCr:
-        state_ = ch == '\r' ? kDataLf : kBad;
-        break;
-      case kDataLf:
-        state_ = ch == '\n' ? kSize : kBad;
-        digits_ = 0;
-        break;
       case kFieldStart:
         if (ch == '\r') state_ = kLastLf;
         else state_ = is_tchar((unsigned char)ch) ? kField : kBad;
@@ -614,12 +616,6 @@ bool ChunkedFraming::feed(const char* data, std::size_t n) {
         if (++trailer_bytes_ > 8192) state_ = kBad;
         else if (ch == '\r') state_ = kFieldLf;
         else if (ctl((unsigned char)ch)) state_ = kBad;
-        break;
-      case kFieldLf:
-        state_ = ch == '\n' ? kFieldStart : kBad;
-        break;
-      case kLastLf:
-        state_ = ch == '\n' ? kDone : kBad;
         break;
       default:
         break;

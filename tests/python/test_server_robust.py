@@ -245,7 +245,7 @@ class Robust(unittest.TestCase):
         self.assertTrue(wait_for(lambda: not os.path.exists(os.path.join(d.data_dir, "jobs", j["id"])), 10))
         c.wait(c.submit(SPHERE, {"order": 2}, retries=0)["id"], timeout=30)  # space was freed
 
-    # --- Found by a black-box sweep (session 25) -------------------------------------------------
+    # --- Found by a black-box sweep ---------------------------------------------------------------
 
     def raw(self, d, head, body=b"", wait=10):
         """Sends one raw HTTP request; returns the status line and the whole reply (its headers, and
@@ -540,6 +540,22 @@ class Robust(unittest.TestCase):
         obj = b"".join(b"o part%d\ng group%d\nusemtl m\n" % (i, i) for i in range(3000))
         obj += b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n"
         self.assertIn(b" 202 ", self.raw(d, post % (b"?order=2", auth, len(obj)), obj)[0])
+
+    def test_out_of_memory_abort_is_413(self):
+        # Under a small RLIMIT_AS the worker's threads or allocations fail and the runtime aborts.
+        worker = D.fake_worker(self.tmp, "oom.py", "import os, signal, sys\n"
+                               "if sys.argv[1] != 'info':\n"
+                               "    sys.stderr.write(\"terminate called after throwing an instance of 'std::system_error'\\n"
+                               "  what():  pthread_create has failed: Resource temporarily unavailable\\n\")\n"
+                               "    sys.stderr.flush()\n    os.kill(os.getpid(), signal.SIGABRT)\n" + D.FAKE_OK)
+        workers = [worker] + ([self.real] if self.real else [])
+        for w in workers:  # the real one with --job-memory-mb 16 (was 500 worker-crashed)
+            d = self.daemon(w, ["--job-memory-mb", "16"], data_dir=os.path.join(self.tmp, "data-" + os.path.basename(w)))
+            c = Client(d.url)
+            job = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=60)
+            self.assertEqual((job["status"], job["error"]["code"], job["error"]["status"]),
+                             ("failed", "payload-too-large", 413), (w, job))
+            d.stop()
 
     def test_crashing_input_check_fails_the_job(self):
         # `hocurve info` crashes; the run itself would succeed (and report counts: null).
