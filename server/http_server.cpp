@@ -435,6 +435,7 @@ class Front {
   void refuse(Conn* c, int status, const char* reason, const std::string& type, const std::string& detail) {
     const std::string a = canned_answer(status, reason, type, detail);
     (void)::send(c->fd, a.data(), a.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (s_.on_refusal_) s_.on_refusal_(c->buf.substr(0, std::min<size_t>(c->buf.find(' '), 16)), status);
     buffered_ -= c->buf.size();
     std::string().swap(c->buf);
     linger(c);

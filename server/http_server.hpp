@@ -19,6 +19,7 @@
 
 #include <atomic>
 #include <cstddef>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -41,6 +42,9 @@ class HttpServer : public httplib::Server {
   HttpServer();
   ~HttpServer() override;
   void set_front_limits(const FrontLimits& limits) { limits_ = limits; }
+  /// Called (on the front end's thread) for each request the front end answers itself: the
+  /// method if the request line got that far, and the status.
+  void set_refusal_counter(std::function<void(const std::string& method, int status)> f) { on_refusal_ = std::move(f); }
   /// Serves the socket bound by bind_to_port / bind_to_any_port until halt(); requests run on
   /// new_task_queue's pool. False if it could not start.
   bool serve();
@@ -53,6 +57,7 @@ class HttpServer : public httplib::Server {
   void serve_connection(Connection* c);  // on a pool thread
   void give_back(Connection* c);         // from a pool thread to the front end
   FrontLimits limits_;
+  std::function<void(const std::string&, int)> on_refusal_;
   std::unique_ptr<httplib::TaskQueue> task_queue_;
   int wake_fd_ = -1;
   std::atomic<bool> halted_{false};

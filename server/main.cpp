@@ -117,6 +117,8 @@ int main(int argc, char** argv) {
                             {"hocurve_bin", worker}, {"workers", config.workers}});
   app->runner.start();
   install_routes(svr, *app);
+  App& a = *app;  // requests the front end refuses count as those of no route
+  svr.set_refusal_counter([&a](const std::string& method, int status) { a.metrics.count_request(method, "other", status, 0); });
 
   std::thread http([&svr] { svr.serve(); });
   int sig = 0;

@@ -190,6 +190,9 @@ class Direct(unittest.TestCase):
             self.assertIn(st, (431, 400))  # nginx says 400 (Request Header Or Cookie Too Large)
         self.assertLess(after - before, 50)
         self.assertLess(self.healthz_seconds(), 1.0)
+        if not self.proxied:  # counted, though refused before routing
+            with urllib.request.urlopen("http://127.0.0.1:%d/metrics" % self.port, timeout=5) as r:
+                self.assertIn('hocurve_http_requests_total{method="GET",route="other",code="431"} 4', r.read().decode())
 
     def test_request_framing(self):
         auth = b"Authorization: Bearer s3cret\r\n"
