@@ -427,7 +427,7 @@ class Front {
     ::epoll_ctl(ep_, EPOLL_CTL_DEL, c->fd, nullptr);
     conns_.erase(c->fd);
     buffered_ -= c->buf.size();
-    s_.task_queue_->enqueue([this, c] { s_.serve_connection(c); });
+    s_.task_queue_->enqueue([&s = s_, c] { s.serve_connection(c); });
   }
 
   /// Answers a request the library never sees, then lingers: the client reads the answer before
