@@ -427,7 +427,14 @@ class Front {
     ::epoll_ctl(ep_, EPOLL_CTL_DEL, c->fd, nullptr);
     conns_.erase(c->fd);
     buffered_ -= c->buf.size();
-    s_.task_queue_->enqueue([&s = s_, c] { s.serve_connection(c); });
+    (is_probe(c) ? s_.probe_queue_ : s_.task_queue_)->enqueue([&s = s_, c] { s.serve_connection(c); });
+  }
+
+  static bool is_probe(const Conn* c) {
+    if (c->length > 0 || c->has_te) return false;
+    for (const char* p : {"GET /healthz ", "GET /readyz ", "GET /metrics ", "HEAD /healthz ", "HEAD /readyz "})
+      if (c->buf.compare(0, std::strlen(p), p) == 0) return true;
+    return false;
   }
 
   /// Answers a request the library never sees, then lingers: the client reads the answer before
@@ -490,9 +497,11 @@ bool HttpServer::serve() {
   ::listen(listener, SOMAXCONN);
   ::fcntl(listener, F_SETFL, ::fcntl(listener, F_GETFL) | O_NONBLOCK);
   task_queue_.reset(new_task_queue ? new_task_queue() : new httplib::ThreadPool(8));
+  probe_queue_.reset(new httplib::ThreadPool(2));
   Front front(*this, listener);
   const bool ok = front.run();
   task_queue_->shutdown();  // waits for the requests being served
+  probe_queue_->shutdown();
   std::vector<Connection*> back;
   {
     std::lock_guard<std::mutex> lock(returned_mutex_);

@@ -6,7 +6,8 @@
 // grew the daemon by a gigabyte before the 401, and bursts of connects were reset. So HttpServer
 // accepts on its own (backlog SOMAXCONN) and one thread reads every connection's head with epoll,
 // bounded in size, field count and time; only a complete, well-framed head goes to a pool thread,
-// and a kept-alive connection comes back to the front end between requests.
+// and a kept-alive connection comes back to the front end between requests. Probes without a body
+// have two threads of their own, so that uploads holding every pool thread cannot stall them.
 //
 // On the pool thread one stream serves the connection's request (cpp-httplib makes a new socket
 // stream per request whose read-ahead was lost with it): what it read ahead stays for the next
@@ -59,6 +60,7 @@ class HttpServer : public httplib::Server {
   FrontLimits limits_;
   std::function<void(const std::string&, int)> on_refusal_;
   std::unique_ptr<httplib::TaskQueue> task_queue_;
+  std::unique_ptr<httplib::TaskQueue> probe_queue_;  // GET /healthz, /readyz, /metrics: never behind uploads
   int wake_fd_ = -1;
   std::atomic<bool> halted_{false};
   std::mutex returned_mutex_;

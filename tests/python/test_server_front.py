@@ -162,6 +162,35 @@ class Direct(unittest.TestCase):
             self.assertEqual(status_of(reply), 408, reply[:200])
             self.assertIn(b"Connection: close", reply)
 
+    def test_healthz_answers_while_uploads_hold_every_thread(self):
+        if self.proxied:
+            return  # nginx buffers bodies: slow uploads never reach hocurved
+        d = D.Daemon(BUILD_DIR, data_dir=os.path.join(self.tmp, "data4"), worker=self.d.worker,
+                     args=["--http-threads", "4", "--client-timeout", "3"])
+        d.start()
+        self.addCleanup(d.stop)
+        held = []
+        try:
+            for _ in range(8):
+                s = socket.create_connection(("127.0.0.1", d.port), timeout=10)
+                s.sendall(b"POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: model/stl\r\n"
+                          b"Content-Length: 1000000\r\n\r\nsolid x\n")
+                held.append(s)
+            worst = 0.0
+            for _ in range(4):
+                time.sleep(0.5)
+                for s in held:
+                    s.sendall(b" ")  # a byte now and then: never silent for --client-timeout
+                t = time.monotonic()
+                with urllib.request.urlopen(d.url + "/healthz", timeout=5) as r:
+                    self.assertEqual(r.status, 200)
+                worst = max(worst, time.monotonic() - t)
+            self.assertLess(worst, 1.0)
+            print("\n  /healthz with 8 slow uploads on 4 threads: worst %.3f s" % worst, file=sys.stderr)
+        finally:
+            for s in held:
+                s.close()
+
     def test_header_flood_is_refused_before_authentication(self):
         before = rss_mb(self.d.proc.pid)
         line = b"X-Flood: " + b"a" * 5 + b"\r\n"  # 2M such lines over 4 connections: 30 MB
