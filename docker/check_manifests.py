@@ -7,7 +7,8 @@ Checks: every YAML document parses and names apiVersion/kind/metadata.name; ever
 set anywhere is one hocurved reads; probe paths are routes of server/routes.cpp; ports, user, data
 directory and volume agree with the Dockerfile; selectors, named ports, claims and secrets resolve;
 grace periods outlast HOCURVE_SHUTDOWN_GRACE; workers x job memory fit the memory limit; the disk quota
-fits the volume. Prints one line per problem and exits 1 when there is any.
+fits the volume; the nginx front (docker/nginx.conf) listens on the image's port, forwards to hocurved's
+HOCURVE_PORT on loopback and lets the largest upload and the longest sync job through. Prints one line per problem and exits 1 when there is any.
 """
 import pathlib
 import re
@@ -55,6 +56,34 @@ def dockerfile():
     return env, user, int(expose), volume, health
 
 
+def nginx():
+    """docker/nginx.conf: its listen port, upstream port, body limit (bytes) and read timeout (s)."""
+    text = (ROOT / "docker/nginx.conf").read_text()
+    listen = int(re.search(r"^\s*listen (\d+)", text, re.M).group(1))
+    upstream = int(re.search(r"^\s*server 127\.0\.0\.1:(\d+);", text, re.M).group(1))
+    body = size_bytes(re.search(r"^\s*client_max_body_size (\S+);", text, re.M).group(1))
+    read = seconds(re.search(r"^\s*proxy_read_timeout (\S+);", text, re.M).group(1))
+    return listen, upstream, body, read
+
+
+def probe_target(probe):
+    """(path, port) an httpGet probe or an exec probe running curl asks for; None if neither."""
+    if "httpGet" in probe:
+        return probe["httpGet"]["path"], probe["httpGet"]["port"]
+    cmd = probe.get("exec", {}).get("command", [])
+    m = next((re.match(r"http://127\.0\.0\.1:(\d+)(/\S*)$", a) for a in cmd if a.startswith("http://")), None)
+    return (m.group(2), int(m.group(1))) if cmd[:1] == ["curl"] and m else None
+
+
+def check_front(where, env, listen_port, n_upstream, n_body, n_read):
+    """hocurved behind the front: on loopback, on the port nginx.conf forwards to, with limits that fit."""
+    check(env.get("HOCURVE_HOST") == "127.0.0.1", f"{where}: HOCURVE_HOST must be 127.0.0.1 behind the front")
+    check(int(env.get("HOCURVE_PORT", 8080)) == n_upstream, f"{where}: HOCURVE_PORT != nginx.conf upstream {n_upstream}")
+    check(n_upstream != listen_port, f"{where}: hocurved and the front on one port")
+    check(float(env.get("HOCURVE_MAX_UPLOAD_MB", 64)) * 2**20 < n_body, f"{where}: nginx client_max_body_size below HOCURVE_MAX_UPLOAD_MB")
+    check(float(env.get("HOCURVE_JOB_TIMEOUT", 600)) + 30 <= n_read, f"{where}: nginx proxy_read_timeout below HOCURVE_JOB_TIMEOUT + 30 s")
+
+
 def size_bytes(q):
     units = {"Ki": 2**10, "Mi": 2**20, "Gi": 2**30, "Ti": 2**40, "k": 1e3, "M": 1e6, "G": 1e9,
              "g": 2**30, "m": 2**20}
@@ -80,6 +109,9 @@ def main():
     check(f":{d_port}/healthz" in d_health, f"Dockerfile: HEALTHCHECK does not probe :{d_port}/healthz")
     check(uid != 0, "Dockerfile: runs as root")
     grace = float(d_env.get("HOCURVE_SHUTDOWN_GRACE", 20))
+    n_listen, n_upstream, n_body, n_read = nginx()
+    check(n_listen == d_port, f"nginx.conf: listens on {n_listen}, not the image's port {d_port}")
+    front_cmd = ["nginx", "-e", "stderr", "-c", "/usr/local/share/hocurve/nginx.conf", "-g", "daemon off;"]
 
     # ---- compose ----
     compose = yaml.safe_load((ROOT / "docker/compose.yaml").read_text())
@@ -99,6 +131,10 @@ def main():
     job_mb = float(c_env.get("HOCURVE_JOB_MEMORY_MB", d_env.get("HOCURVE_JOB_MEMORY_MB", 4096)))
     if mem:
         check(workers * job_mb * 2**20 <= size_bytes(mem), f"compose.yaml: {workers} workers x {job_mb} MB > memory {mem}")
+    front = compose["services"].get("front", {})
+    check(front.get("network_mode") == "service:hocurved", "compose.yaml: front must share hocurved's network namespace")
+    check(front.get("entrypoint") == front_cmd, "compose.yaml: front does not run docker/nginx.conf")
+    check_front("compose.yaml", c_env, n_listen, n_upstream, n_body, n_read)
     check(svc.get("build", {}).get("dockerfile") == "docker/Dockerfile", "compose.yaml: build.dockerfile")
     check((ROOT / "docker" / svc.get("build", {}).get("context", "?") / ".dockerignore").exists(),
           "compose.yaml: build context has no .dockerignore")
@@ -124,26 +160,33 @@ def main():
         sc = ps.get("securityContext", {})
         check(sc.get("runAsUser") == uid and sc.get("runAsNonRoot") is True, f"Deployment: runAsUser != {uid}")
         vols = {v["name"]: v for v in ps.get("volumes", [])}
-        (ctr,) = ps["containers"]
-        ports = {p.get("name"): p["containerPort"] for p in ctr.get("ports", [])}
-        check(d_port in ports.values(), f"Deployment: containerPort != {d_port}")
+        ctrs = {c["name"]: c for c in ps["containers"]}
+        check(set(ctrs) == {"front", "hocurved"}, f"Deployment: containers {sorted(ctrs)}, expected front and hocurved")
+        ctr, front = ctrs.get("hocurved", {}), ctrs.get("front", {})
+        check(front.get("command") == front_cmd, "Deployment: front does not run docker/nginx.conf")
+        ports = {p.get("name"): p["containerPort"] for p in front.get("ports", [])}
+        check(d_port in ports.values(), f"Deployment: the front's containerPort != {d_port}")
         k_env = {e["name"]: e.get("value") for e in ctr.get("env", [])}
         for k in k_env:
             check(k in env_ok, f"Deployment: env {k} is not read by hocurved")
+        check_front("Deployment", k_env, n_listen, n_upstream, n_body, n_read)
+        if front.get("securityContext", {}).get("readOnlyRootFilesystem"):
+            check("/tmp" in {m["mountPath"] for m in front.get("volumeMounts", [])}, "Deployment: front without a /tmp volume")
         mounts = {m["mountPath"]: m["name"] for m in ctr.get("volumeMounts", [])}
         for path, vname in mounts.items():
             check(vname in vols, f"Deployment: volumeMount {vname} has no volume")
         check(d_volume in mounts, f"Deployment: nothing mounted on the data directory {d_volume}")
         if ctr.get("securityContext", {}).get("readOnlyRootFilesystem"):
             check("/tmp" in mounts, "Deployment: read-only root filesystem without a /tmp volume")
+        targets = {}
         for probe in ("startupProbe", "livenessProbe", "readinessProbe"):
-            h = ctr.get(probe, {}).get("httpGet")
-            if check(h is not None, f"Deployment: no {probe}"):
-                check(h["path"] in paths, f"Deployment: {probe} path {h['path']} is not a route")
-                port = h["port"]
-                check(port in ports or port in ports.values(), f"Deployment: {probe} port {port} is not a container port")
-        check(ctr["readinessProbe"]["httpGet"]["path"] == "/readyz", "Deployment: readiness must use /readyz (503 while draining)")
-        check(ctr["livenessProbe"]["httpGet"]["path"] == "/healthz", "Deployment: liveness must use /healthz")
+            t = probe_target(ctr.get(probe, {}))
+            if check(t is not None, f"Deployment: no {probe} (httpGet, or exec curl http://127.0.0.1:PORT/PATH)"):
+                targets[probe] = t[0]
+                check(t[0] in paths, f"Deployment: {probe} path {t[0]} is not a route")
+                check(t[1] == int(k_env.get("HOCURVE_PORT", 8080)), f"Deployment: {probe} port {t[1]} is not HOCURVE_PORT")
+        check(targets.get("readinessProbe") == "/readyz", "Deployment: readiness must use /readyz (503 while draining)")
+        check(targets.get("livenessProbe") == "/healthz", "Deployment: liveness must use /healthz")
         k_grace = float(k_env.get("HOCURVE_SHUTDOWN_GRACE", grace))
         check(ps.get("terminationGracePeriodSeconds", 30) > k_grace, "Deployment: terminationGracePeriodSeconds <= HOCURVE_SHUTDOWN_GRACE")
         lim = ctr.get("resources", {}).get("limits", {})

@@ -14,6 +14,7 @@ PACKAGES=(
   zlib1g-dev            # gzip-compressed inputs
   python3 python3-gmsh python3-numpy python3-meshio  # test-shape generation, independent read-back
   curl                  # curl client and daemon tests
+  nginx-light           # the container's reverse proxy (docker/nginx.conf), run on loopback by tests/python/test_server_front.py
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

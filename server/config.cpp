@@ -35,6 +35,7 @@ const std::map<std::string, Setter>& setters() {
       {"data-dir", [](Config& c, const std::string& v) { c.data_dir = v; }},
       {"workers", [](Config& c, const std::string& v) { c.workers = (int)to_number("workers", v, 1, 256); }},
       {"http-threads", [](Config& c, const std::string& v) { c.http_threads = (int)to_number("http-threads", v, 2, 1024); }},
+      {"client-timeout", [](Config& c, const std::string& v) { c.client_timeout = to_number("client-timeout", v, 0.1, 3600); }},
       {"job-threads", [](Config& c, const std::string& v) { c.job_threads = (int)to_number("job-threads", v, 1, 256); }},
       {"max-upload-mb", [](Config& c, const std::string& v) { c.max_upload_mb = to_number("max-upload-mb", v, 0.001, 1e6); }},
       {"max-sync-mb", [](Config& c, const std::string& v) { c.max_sync_mb = to_number("max-sync-mb", v, 0.001, 1e6); }},

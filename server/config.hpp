@@ -11,6 +11,7 @@ struct Config {
   std::string data_dir = "./hocurved-data";
   int workers = 2;                   ///< concurrent jobs (worker processes)
   int http_threads = 64;             ///< HTTP connection threads (each open connection holds one)
+  double client_timeout = 10;        ///< seconds for a request head to arrive whole; longest silence in a body
   int job_threads = 1;               ///< --threads passed to each worker
   double max_upload_mb = 64;         ///< POST /v1/jobs body cap
   double max_sync_mb = 4;            ///< POST /v1/curve body cap

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cstring>
+#include <iterator>
+#include <zlib.h>
 
 namespace hocurve::server {
 namespace {
@@ -35,25 +37,49 @@ bool ends_with_ci(std::string s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-bool looks_like_obj(const std::string& text) {
-  // Every non-empty line of an OBJ starts with a known keyword or '#'; require at least one "v ".
+/// Every line of an OBJ starts with a keyword (a statement) or '#'. The text must hold a vertex,
+/// or be cut off (`truncated`) after nothing but OBJ statements: a file may open with many group,
+/// object or material lines before its first vertex.
+bool looks_like_obj(const std::string& text, bool truncated) {
+  static const char* kw[] = {"v", "vt", "vn", "vp", "f", "o", "g", "s", "l", "p", "mtllib", "usemtl", "mg",
+                             "cstype", "deg", "curv", "curv2", "surf", "parm", "trim", "hole", "end", "bevel",
+                             "c_interp", "d_interp", "lod", "shadow_obj", "trace_obj", "ctech", "stech"};
   size_t pos = 0, lines = 0;
   bool has_vertex = false;
-  while (pos < text.size() && lines < 200) {
+  while (pos < text.size()) {
     size_t end = text.find('\n', pos);
-    if (end == std::string::npos) end = text.size();
+    if (end == std::string::npos) {
+      if (truncated) break;  // the last line may be cut in the middle of a word
+      end = text.size();
+    }
     std::string line = ltrim(text.substr(pos, end - pos));
     pos = end + 1;
-    if (line.empty()) continue;
+    if (line.empty() || line[0] == '#') continue;
     ++lines;
-    static const char* kw[] = {"#", "v ", "vt", "vn", "vp", "f ", "o ", "g ", "s ", "l ", "mtllib", "usemtl", "v\t", "f\t"};
-    bool ok = false;
-    for (const char* k : kw)
-      if (line.rfind(k, 0) == 0) { ok = true; break; }
-    if (!ok) return false;
-    if (line.rfind("v ", 0) == 0 || line.rfind("v\t", 0) == 0) has_vertex = true;
+    const std::string word = line.substr(0, line.find_first_of(" \t\r"));
+    if (std::find_if(std::begin(kw), std::end(kw), [&](const char* k) { return word == k; }) == std::end(kw))
+      return false;
+    has_vertex |= word == "v";
   }
-  return has_vertex;
+  return has_vertex || (truncated && lines > 0);
+}
+
+/// The first `max_out` bytes a gzip stream inflates to (less if it ends or is corrupt first);
+/// `ended` tells whether the stream ended within them.
+std::string inflate_prefix(const std::string& gz, size_t max_out, bool& ended) {
+  std::string out(max_out, '\0');
+  z_stream z{};
+  ended = false;
+  if (inflateInit2(&z, 16 + MAX_WBITS) != Z_OK) return "";
+  z.next_in = (Bytef*)gz.data();
+  z.avail_in = (uInt)gz.size();
+  z.next_out = (Bytef*)out.data();
+  z.avail_out = (uInt)out.size();
+  const int rc = inflate(&z, Z_SYNC_FLUSH);
+  ended = rc == Z_STREAM_END;
+  out.resize(rc == Z_OK || rc == Z_STREAM_END || rc == Z_BUF_ERROR ? z.total_out : 0);
+  inflateEnd(&z);
+  return out;
 }
 
 }  // namespace
@@ -65,11 +91,22 @@ SniffResult sniff_mesh(const std::string& head, std::uint64_t size, const std::s
     return r;
   }
   if (head.size() >= 2 && (unsigned char)head[0] == 0x1f && (unsigned char)head[1] == 0x8b) {
-    // The worker inflates and detects the inner format; keep the inner extension when the name tells it.
+    // The inner format is checked here on what the first 64 KiB inflate to: a gzip bomb of
+    // zeros or of anything else but a mesh is refused before its worker inflates gigabytes.
     r.format = "gzip";
     r.extension = ".gz";
     for (const char* e : {".stl", ".obj", ".ply", ".off", ".msh"})
       if (ends_with_ci(name_hint, std::string(e) + ".gz")) r.extension = std::string(e) + ".gz";
+    bool ended = false;
+    const std::string inner = inflate_prefix(head, 64 * 1024, ended);
+    if (inner.empty()) {
+      r.refusal = "the gzip data is corrupt or empty";
+      return r;
+    }
+    // Unknown total size: large enough for any facet count the header may declare.
+    const SniffResult in = sniff_mesh(inner, ended ? inner.size() : ~0ull / 4, name_hint.substr(0, name_hint.size() - 3 * ends_with_ci(name_hint, ".gz")));
+    if (in.format.empty()) return {};
+    if (!in.refusal.empty()) r.refusal = "inside the gzip file: " + in.refusal;
     return r;
   }
   // Binary STL: 80-byte header, uint32 facet count, 50 bytes per facet. Checked before the text
@@ -111,7 +148,7 @@ SniffResult sniff_mesh(const std::string& head, std::uint64_t size, const std::s
   if (t.rfind("$MeshFormat", 0) == 0) return {"msh", ".msh", ""};
   if (t.rfind("ply", 0) == 0 && t.size() > 3 && (t[3] == '\n' || t[3] == '\r')) return {"ply", ".ply", ""};
   if (t.rfind("OFF", 0) == 0 || t.rfind("NOFF", 0) == 0 || t.rfind("COFF", 0) == 0) return {"off", ".off", ""};
-  if (mostly_text(head) && looks_like_obj(head)) return {"obj", ".obj", ""};
+  if (mostly_text(head) && looks_like_obj(head, size > head.size())) return {"obj", ".obj", ""};
   if (size < 84 && ends_with_ci(name_hint, ".stl")) {
     r.format = "stl-binary";
     r.refusal = "binary STL shorter than its 84-byte header (" + std::to_string(size) + " bytes)";

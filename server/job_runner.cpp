@@ -11,6 +11,7 @@
 #include <fcntl.h>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <functional>
 #include <poll.h>
 #include <sys/prctl.h>
@@ -43,6 +44,21 @@ std::string last_line(const std::string& path) {
   last = without_dir(last, fs::path(path).parent_path().string() + "/");
   if (last.size() > 500) last = last.substr(0, 500) + "...";
   return last;
+}
+
+/// True when a worker that died of a signal says it ran out of memory first: under RLIMIT_AS an
+/// allocation or a thread's stack fails, and the C++ runtime aborts on the uncaught exception.
+bool ran_out_of_memory(int sig, const std::string& log_path) {
+  if (sig != SIGABRT && sig != SIGSEGV && sig != SIGBUS && sig != SIGKILL) return false;
+  std::ifstream in(log_path, std::ios::binary);
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  in.seekg(std::max<std::streamoff>(0, size - 4096));
+  const std::string tail((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const char* sign : {"bad_alloc", "Cannot allocate memory", "pthread_create has failed", "out of memory",
+                           "failed to map segment"})
+    if (tail.find(sign) != std::string::npos) return true;
+  return false;
 }
 
 /// without_dir of every string in j (the worker's stats name its input and output by path).
@@ -347,8 +363,17 @@ void JobRunner::run_job(const std::string& id) {
     } else if (st >= 0 && WIFEXITED(st) && WEXITSTATUS(st) == 5) {
       finish("failed", too_big(last_line(logfile)));
       return;
+    } else if (st >= 0 && WIFSIGNALED(st) && ran_out_of_memory(WTERMSIG(st), logfile)) {
+      finish("failed", too_big(last_line(logfile)));
+      return;
+    } else if (st >= 0 && WIFSIGNALED(st) && !stop()) {
+      // The same input would crash the main run too, with no counts to show for it.
+      finish("failed", make_problem(500, "worker-crashed",
+                                    "the input check (hocurve info) was killed by " + signal_name(WTERMSIG(st)) +
+                                        (last_line(logfile).empty() ? "" : ": " + last_line(logfile))));
+      return;
     }
-    // Anything else (an older worker without `info`, a crash): the main run reports it.
+    // Anything else (an older worker without `info`, a timeout, a cancel): the main run reports it.
   }
 
   std::vector<std::string> args = worker_argv(worker_bin_, job.options, input, part, stats, config_.job_threads);
@@ -500,6 +525,10 @@ void JobRunner::run_job(const std::string& id) {
                                     "job exceeded the time limit of " + std::to_string((int)config_.job_timeout) + " s"));
       return;
     case ProcessOutcome::kSignaled: {
+      if (ran_out_of_memory(outcome.code, logfile)) {
+        finish("failed", too_big(err_line));
+        return;
+      }
       std::string why = "worker process was killed by " + signal_name(outcome.code);
       if (outcome.code == SIGKILL || outcome.code == SIGXCPU)
         why += " (memory limit " + std::to_string((long long)config_.job_memory_mb) + " MiB or CPU limit?)";
@@ -516,7 +545,7 @@ void JobRunner::run_job(const std::string& id) {
       // not fit is dropped here, so that disk use stays within the quota and one result.
       const std::uint64_t size = ok ? fs::file_size(part, ec) : 0;
       const auto quota = (std::uint64_t)(config_.max_disk_mb * 1048576);
-      if (ok && store_.disk_bytes() + size > quota) {
+      if (ok && store_.disk_bytes() + store_.reserved_bytes() + size > quota) {
         fs::remove(part, ec);
         finish("failed", make_problem(507, "quota-exceeded",
                                       "the result (" + std::to_string(size / 1024) +

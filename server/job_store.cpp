@@ -412,4 +412,21 @@ std::uint64_t JobStore::disk_bytes() const {
   return disk_bytes_;
 }
 
+bool JobStore::reserve(std::uint64_t bytes, std::uint64_t quota) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (disk_bytes_ + reserved_ + bytes > quota) return false;
+  reserved_ += bytes;
+  return true;
+}
+
+void JobStore::release(std::uint64_t bytes) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  reserved_ -= std::min(bytes, reserved_);
+}
+
+std::uint64_t JobStore::reserved_bytes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return reserved_;
+}
+
 }  // namespace hocurve::server

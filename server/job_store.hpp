@@ -96,6 +96,14 @@ class JobStore {
   std::uint64_t disk_bytes() const;
   /// Counts job id's folder again (after its worker wrote the result, stats and log).
   void recount(const std::string& id);
+  /// Sets `bytes` of `quota` aside for an upload in progress, unless the jobs' bytes and the other
+  /// uploads' reservations leave less room (then false, nothing set aside): parallel uploads each
+  /// checked against the jobs alone overshot the quota together.
+  bool reserve(std::uint64_t bytes, std::uint64_t quota);
+  /// Gives back what reserve() set aside (once the upload is a job, counted in disk_bytes, or gone).
+  void release(std::uint64_t bytes);
+  /// Bytes set aside by uploads in progress.
+  std::uint64_t reserved_bytes() const;
 
  private:
   void persist(const Job& job) const;
@@ -118,6 +126,7 @@ class JobStore {
   std::map<std::string, std::string> idempotency_;  // key -> id
   std::map<std::string, std::uint64_t> counted_;  // bytes of each job's folder in disk_bytes_ (under mutex_)
   std::uint64_t disk_bytes_ = 0;
+  std::uint64_t reserved_ = 0;  // under mutex_
   std::uint64_t id_counter_ = 0;
 };
 

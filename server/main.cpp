@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <iostream>
 #include <thread>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #ifndef HOCURVE_VERSION
@@ -56,13 +57,27 @@ int main(int argc, char** argv) {
   });
   const int threads = config.http_threads;
   svr.new_task_queue = [threads] { return new httplib::ThreadPool((size_t)threads); };
-  // Each open connection holds a pool thread: idle ones are let go quickly, so that a burst of
-  // idle or slow clients cannot starve the probes (upload.cpp also cuts off slow bodies).
+  // A pool thread serves one request at a time; heads are read by the front end (http_server.hpp),
+  // so idle and slow clients hold no thread. Slow bodies are cut off (upload.cpp, read timeout).
   svr.set_keep_alive_max_count(5);
   svr.set_keep_alive_timeout(1);
-  svr.set_read_timeout(15);
+  const auto client_us = (long long)(config.client_timeout * 1e6);
+  svr.set_read_timeout(client_us / 1000000, client_us % 1000000);
   svr.set_write_timeout(30);
   svr.set_payload_max_length((size_t)(std::max(config.max_upload_mb, config.max_sync_mb) * 1048576) + (1u << 20));
+  FrontLimits limits;
+  limits.head_seconds = config.client_timeout;
+  {  // each waiting connection holds a descriptor: take what the hard limit allows
+    rlimit nofile{};
+    if (::getrlimit(RLIMIT_NOFILE, &nofile) == 0) {
+      nofile.rlim_cur = nofile.rlim_max;
+      ::setrlimit(RLIMIT_NOFILE, &nofile);
+      ::getrlimit(RLIMIT_NOFILE, &nofile);
+      const rlim_t spare = 256 + 2 * (rlim_t)threads;  // jobs, store, pool connections
+      limits.connections = nofile.rlim_cur > spare + 64 ? (size_t)std::min<rlim_t>(nofile.rlim_cur - spare, 65536) : 64;
+    }
+  }
+  svr.set_front_limits(limits);
 
   int port = config.port;
   if (port == 0) {
@@ -102,14 +117,16 @@ int main(int argc, char** argv) {
                             {"hocurve_bin", worker}, {"workers", config.workers}});
   app->runner.start();
   install_routes(svr, *app);
+  App& a = *app;  // requests the front end refuses count as those of no route
+  svr.set_refusal_counter([&a](const std::string& method, int status) { a.metrics.count_request(method, "other", status, 0); });
 
-  std::thread http([&svr] { svr.listen_after_bind(); });
+  std::thread http([&svr] { svr.serve(); });
   int sig = 0;
   sigwait(&signals, &sig);
   log_info("draining", {{"signal", sig}, {"running", app->runner.running()}, {"queued", app->runner.queue_depth()}});
   app->draining = true;
   app->runner.shutdown(config.shutdown_grace);
-  svr.stop();
+  svr.halt();
   http.join();
   log_info("stopped", nlohmann::json::object());
   return 0;

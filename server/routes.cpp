@@ -263,7 +263,13 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
     throw ApiError(429, "queue-full",
                    "the queue holds " + std::to_string(app.config.max_queue) + " jobs already; retry later");
   }
-  // Options from the query string are validated before the upload is read.
+  // Options from the query string are validated before the upload is read. cpp-httplib drops what
+  // follows a ';' in a parameter, where other parsers split there: `order=3;order=4` meant 3 here
+  // and 4 elsewhere, so ';' is refused.
+  if (req.target.find(';', std::min(req.target.find('?'), req.target.size())) != std::string::npos) {
+    discard_body(req, res, reader);
+    throw ApiError(400, "invalid-options", "the query holds a ';': separate parameters with '&'");
+  }
   nlohmann::json raw = options_from_query(req.params);
   std::set<std::string> query_keys;  // text; the multipart options part is JSON
   for (auto& [k, _] : raw.items()) query_keys.insert(k);
@@ -301,14 +307,22 @@ Created create_job(App& app, const Request& req, Response& res, const ContentRea
 
   const double cap_mb = sync ? app.config.max_sync_mb : app.config.max_upload_mb;
   const std::uint64_t cap = (std::uint64_t)(cap_mb * 1024 * 1024);
+  // The declared length is set aside in the quota until the upload is a job (counted then) or
+  // gone; above the upload limit it is 413 (receive_upload says so) before the quota's 507.
+  struct Reservation {
+    JobStore& store;
+    std::uint64_t bytes = 0;
+    ~Reservation() { store.release(bytes); }
+  } reservation{app.store};
   if (req.has_header("Content-Length")) {
-    // Above the upload limit is 413 (receive_upload says so) before the quota's 507.
     const std::string cl = req.get_header_value("Content-Length");
-    if (cl.find_first_not_of("0123456789") == std::string::npos && cl.size() < 18 && std::stoull(cl) <= cap &&
-        app.store.disk_bytes() + std::stoull(cl) > (std::uint64_t)(app.config.max_disk_mb * 1024 * 1024)) {
-      discard_body(req, res, reader);
-      throw ApiError(507, "quota-exceeded", "the data directory quota (" + format_mib(app.config.max_disk_mb) +
-                                                " MiB) is used up; delete jobs or retry later");
+    if (cl.find_first_not_of("0123456789") == std::string::npos && cl.size() < 18 && std::stoull(cl) <= cap) {
+      if (!app.store.reserve(std::stoull(cl), (std::uint64_t)(app.config.max_disk_mb * 1024 * 1024))) {
+        discard_body(req, res, reader);
+        throw ApiError(507, "quota-exceeded", "the data directory quota (" + format_mib(app.config.max_disk_mb) +
+                                                  " MiB) is used up; delete jobs or retry later");
+      }
+      reservation.bytes = std::stoull(cl);
     }
   }
   if (!req.has_header("Content-Length")) {
@@ -456,11 +470,6 @@ void install_routes(httplib::Server& svr, App& app) {
         return httplib::Server::HandlerResponse::Handled;
       }
     }
-    if (req.get_header_value_count("Content-Length") > 1) {  // which one a proxy used is unknowable
-      send_problem(req, res, 400, "invalid-request", "more than one Content-Length header");
-      res.set_header("Connection", "close");
-      return httplib::Server::HandlerResponse::Handled;
-    }
     if (req.has_header("Content-Encoding")) {
       send_problem(req, res, 415, "unsupported-media-type", "Content-Encoding is not accepted; gzip the mesh file itself instead");
       res.set_header("Connection", "close");
@@ -491,12 +500,15 @@ void install_routes(httplib::Server& svr, App& app) {
       return httplib::Server::HandlerResponse::Handled;
     }
     if (!app.config.token.empty() && req.path.rfind("/v1/", 0) == 0) {
-      std::string auth = req.get_header_value("Authorization");
-      const std::string prefix = "bearer ";  // the scheme is case-insensitive (RFC 9110 11.1)
-      bool ok = auth.size() > prefix.size() &&
-                std::equal(prefix.begin(), prefix.end(), auth.begin(),
-                           [](char a, char b) { return a == std::tolower((unsigned char)b); }) &&
-                constant_time_equal(auth.substr(prefix.size()), app.config.token);
+      const std::string auth = req.get_header_value("Authorization");
+      const std::string scheme = "bearer ";  // case-insensitive, then 1*SP (RFC 9110 11.1, 11.4)
+      bool ok = auth.size() > scheme.size() &&
+                std::equal(scheme.begin(), scheme.end(), auth.begin(),
+                           [](char a, char b) { return a == std::tolower((unsigned char)b); });
+      if (ok) {
+        const size_t credentials = auth.find_first_not_of(' ', scheme.size());
+        ok = credentials != std::string::npos && constant_time_equal(auth.substr(credentials), app.config.token);
+      }
       if (!ok) {
         send_problem(req, res, 401, "unauthorized", "this server needs 'Authorization: Bearer <token>'");
         res.set_header("Connection", "close");
@@ -508,7 +520,11 @@ void install_routes(httplib::Server& svr, App& app) {
 
   svr.set_error_handler(httplib::Server::HandlerWithResponse([](const Request& req, Response& res) {
     if (!res.body.empty() || res.content_length_ > 0) return httplib::Server::HandlerResponse::Unhandled;
+    if (request_read_timed_out()) res.status = 408;  // the client stopped sending mid-request
     switch (res.status) {
+      case 408:
+        send_problem(req, res, 408, "request-timeout", "the client sent nothing for longer than the read timeout");
+        break;
       case 404: send_problem(req, res, 404, "not-found", "no resource at " + req.method + " " + req.path); break;
       case 405: send_problem(req, res, 405, "method-not-allowed", req.method + " is not allowed on " + req.path); break;
       case 413: send_problem(req, res, 413, "payload-too-large", "request body too large"); break;
@@ -540,6 +556,15 @@ void install_routes(httplib::Server& svr, App& app) {
     }
     // An answer that says so ends its connection (the library would read on: the rest of a refused
     // body, or requests pipelined behind it that the client will send again).
+    // One Connection header: handlers and the library (for a client's own "close") each add one.
+    if (res.get_header_value_count("Connection") > 1) {
+      bool close = false;
+      for (size_t i = 0; i < res.get_header_value_count("Connection"); ++i)
+        close |= res.get_header_value("Connection", i) == "close";
+      const std::string first = res.get_header_value("Connection");
+      res.headers.erase("Connection");
+      res.set_header("Connection", close ? "close" : first);
+    }
     if (res.get_header_value("Connection") == "close") {
       res.headers.erase("Keep-Alive");
       close_connection_after_response();

@@ -1,5 +1,6 @@
 #include "server/upload.hpp"
 
+#include "server/http_server.hpp"
 #include "server/problem.hpp"
 
 #include <algorithm>
@@ -199,6 +200,8 @@ Upload receive_upload(const httplib::Request& req, const httplib::ContentReader&
     fail(ApiError(400, "invalid-request",
                   "unexpected multipart part '" + bad_part + "': only 'mesh' (the file) and 'options' (JSON) are accepted"));
   if (mesh_parts > 1) fail(ApiError(400, "invalid-request", "multipart body has more than one 'mesh' part"));
+  if (!ok && request_read_timed_out())
+    fail(ApiError(408, "request-timeout", "the upload stalled: nothing arrived for longer than the read timeout"));
   if (!ok) fail(ApiError(400, "invalid-request", "the request body could not be read (connection closed or malformed multipart)"));
   if (multipart && mesh_parts == 0)
     fail(ApiError(400, "invalid-request", "multipart body has no 'mesh' part (curl -F mesh=@file.stl)"));

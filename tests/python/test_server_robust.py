@@ -245,7 +245,7 @@ class Robust(unittest.TestCase):
         self.assertTrue(wait_for(lambda: not os.path.exists(os.path.join(d.data_dir, "jobs", j["id"])), 10))
         c.wait(c.submit(SPHERE, {"order": 2}, retries=0)["id"], timeout=30)  # space was freed
 
-    # --- Found by a black-box sweep (session 25) -------------------------------------------------
+    # --- Found by a black-box sweep ---------------------------------------------------------------
 
     def raw(self, d, head, body=b"", wait=10):
         """Sends one raw HTTP request; returns the status line and the whole reply (its headers, and
@@ -467,6 +467,105 @@ class Robust(unittest.TestCase):
             f.write(b"x" * 1000)
         self.daemon(self.ok_worker, data_dir=data)
         self.assertFalse(os.path.exists(leftover))
+
+
+    # --- Service hardening: quota under parallel uploads, weaker items of the attack sweep ---------
+
+    def test_parallel_uploads_stay_within_the_quota(self):
+        slow = D.fake_worker(self.tmp, "slow.py", D.FAKE_OK)
+        d = self.daemon(slow, ["--max-disk-mb", "1"], env={"FAKE_SLEEP": "5"})
+        body = b"solid big\n" + b"x" * (330 * 1000 - 22) + b"\nendsolid big\n"
+        head = (b"POST /v1/jobs?order=2 HTTP/1.1\r\nHost: x\r\nContent-Type: application/octet-stream\r\n"
+                b"Content-Length: %d\r\n\r\n" % len(body))
+        socks = [socket.create_connection(("127.0.0.1", d.port), timeout=30) for _ in range(12)]
+        try:
+            for s in socks:  # every upload starts before any ends: each was checked against an empty store
+                s.sendall(head)
+            time.sleep(0.5)
+            for s in socks:
+                s.sendall(body)
+            statuses = []
+            for s in socks:
+                reply = b""
+                while b"\r\n\r\n" not in reply:
+                    chunk = s.recv(65536)
+                    if not chunk:
+                        break
+                    reply += chunk
+                statuses.append(int(reply.split(b" ")[1]))
+        finally:
+            for s in socks:
+                s.close()
+        accepted = statuses.count(202)
+        self.assertEqual(accepted + statuses.count(507), 12, statuses)
+        self.assertEqual(accepted, 3, statuses)  # 3 x 330 KB fit in 1 MiB (was: all 12, 4 MB)
+        used = sum(os.path.getsize(os.path.join(r, f)) for r, _, fs in os.walk(os.path.join(d.data_dir, "jobs")) for f in fs)
+        self.assertLessEqual(used, 1048576 + len(body), used)
+        print("\n  12 parallel 330 KB uploads, 1 MiB quota: %d accepted, %d bytes stored" % (accepted, used), file=sys.stderr)
+
+    def test_weaker_items_of_the_attack_sweep(self):
+        with open(os.path.join(self.tmp, "token"), "w") as f:
+            f.write("s3cret\n")
+        d = self.daemon(self.ok_worker, ["--token-file", os.path.join(self.tmp, "token"), "--client-timeout", "1"])
+        with open(SPHERE, "rb") as f:
+            mesh = f.read()
+        auth = b"Authorization: Bearer s3cret\r\n"
+        post = (b"POST /v1/jobs%s HTTP/1.1\r\nHost: x\r\n%sContent-Type: application/octet-stream\r\n"
+                b"Content-Length: %d\r\n\r\n")
+        # ';' is no separator here, and neither a second value: 400, not order=3 (or 4) by accident.
+        status, reply = self.raw(d, post % (b"?order=3;order=4", auth, len(mesh)), mesh)
+        self.assertIn(b" 400 ", status)
+        self.assertIn(b"invalid-options", reply)
+        # "Bearer" and the token may be apart by more than one space (RFC 9110 11.4: 1*SP).
+        status, _ = self.raw(d, b"GET /v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer   s3cret\r\n\r\n")
+        self.assertIn(b" 200 ", status)
+        # One Connection header on a 401 to a client that said close itself.
+        status, reply = self.raw(d, b"GET /v1/jobs HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+        self.assertIn(b" 401 ", status)
+        self.assertEqual(reply.lower().count(b"\r\nconnection:"), 1, reply)
+        # A body that stops coming is 408, as documented (was 400).
+        status, _ = self.raw(d, post % (b"?order=2", auth, len(mesh)), mesh[:1000])
+        self.assertIn(b" 408 ", status)
+        # A gzip bomb (20 MB of zeros in 20 KB) is refused at submission, before any worker inflates it.
+        import gzip
+        bomb = gzip.compress(b"\0" * (20 << 20))
+        status, reply = self.raw(d, post % (b"?order=2", auth, len(bomb)), bomb)
+        self.assertIn(b" 422 ", status)
+        self.assertIn(b"gzip", reply)
+        text = gzip.compress(b"hello world\n" * 1000)
+        self.assertIn(b" 415 ", self.raw(d, post % (b"?order=2", auth, len(text)), text)[0])
+        zipped = gzip.compress(mesh)
+        self.assertIn(b" 202 ", self.raw(d, post % (b"?order=2", auth, len(zipped)), zipped)[0])
+        # An OBJ may open with many group and object lines before its first vertex.
+        obj = b"".join(b"o part%d\ng group%d\nusemtl m\n" % (i, i) for i in range(3000))
+        obj += b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n"
+        self.assertIn(b" 202 ", self.raw(d, post % (b"?order=2", auth, len(obj)), obj)[0])
+
+    def test_out_of_memory_abort_is_413(self):
+        # Under a small RLIMIT_AS the worker's threads or allocations fail and the runtime aborts.
+        worker = D.fake_worker(self.tmp, "oom.py", "import os, signal, sys\n"
+                               "if sys.argv[1] != 'info':\n"
+                               "    sys.stderr.write(\"terminate called after throwing an instance of 'std::system_error'\\n"
+                               "  what():  pthread_create has failed: Resource temporarily unavailable\\n\")\n"
+                               "    sys.stderr.flush()\n    os.kill(os.getpid(), signal.SIGABRT)\n" + D.FAKE_OK)
+        workers = [worker] + ([self.real] if self.real else [])
+        for w in workers:  # the real one with --job-memory-mb 16 (was 500 worker-crashed)
+            d = self.daemon(w, ["--job-memory-mb", "16"], data_dir=os.path.join(self.tmp, "data-" + os.path.basename(w)))
+            c = Client(d.url)
+            job = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=60)
+            self.assertEqual((job["status"], job["error"]["code"], job["error"]["status"]),
+                             ("failed", "payload-too-large", 413), (w, job))
+            d.stop()
+
+    def test_crashing_input_check_fails_the_job(self):
+        # `hocurve info` crashes; the run itself would succeed (and report counts: null).
+        worker = D.fake_worker(self.tmp, "info_crash.py", "import os, signal, sys\n"
+                               "if sys.argv[1] == 'info':\n    os.kill(os.getpid(), signal.SIGSEGV)\n" + D.FAKE_OK)
+        d = self.daemon(worker)
+        c = Client(d.url)
+        job = c.wait(c.submit(SPHERE, {"order": 2})["id"], timeout=30)
+        self.assertEqual((job["status"], job["error"]["code"]), ("failed", "worker-crashed"), job)
+        self.assertIn("input check", job["error"]["detail"])
 
 
 if __name__ == "__main__":

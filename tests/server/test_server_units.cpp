@@ -1,7 +1,9 @@
 // Unit tests of hocurved's pieces that need no HTTP: option validation, worker command line, format
-// sniffing, the Prometheus text, and the durable job store (atomic state, reload, pagination).
+// sniffing, chunked framing, the Prometheus text, and the durable job store (atomic state, reload,
+// pagination, quota reservations).
 #include "server/byte_range.hpp"
 #include "server/format_sniff.hpp"
+#include "server/http_server.hpp"
 #include "server/job_options.hpp"
 #include "server/job_store.hpp"
 #include "server/metrics.hpp"
@@ -20,6 +22,7 @@
 #include <thread>
 #include <fcntl.h>
 #include <unistd.h>
+#include <zlib.h>
 
 using namespace hocurve::server;
 using nlohmann::json;
@@ -192,6 +195,85 @@ TEST_CASE("format sniffing and the upload-time binary STL count check") {
   for (size_t i = 0; i < garbage.size(); ++i) garbage[i] = char((i * 2654435761u) >> 13);
   auto g = sniff_mesh(garbage, garbage.size(), "");
   CHECK((g.format.empty() || !g.refusal.empty()));  // never accepted as a mesh
+}
+
+std::string gzipped(const std::string& data) {
+  z_stream z{};
+  deflateInit2(&z, 9, Z_DEFLATED, 16 + MAX_WBITS, 9, Z_DEFAULT_STRATEGY);
+  std::string out(deflateBound(&z, data.size()) + 64, '\0');
+  z.next_in = (Bytef*)data.data();
+  z.avail_in = (uInt)data.size();
+  z.next_out = (Bytef*)out.data();
+  z.avail_out = (uInt)out.size();
+  deflate(&z, Z_FINISH);
+  out.resize(z.total_out);
+  deflateEnd(&z);
+  return out;
+}
+
+TEST_CASE("format sniffing: gzip by what it inflates to, OBJ opening with group lines") {
+  const std::string stl = "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
+                          "endloop\nendfacet\nendsolid t\n";
+  const std::string gz = gzipped(stl);
+  CHECK(sniff_mesh(gz, gz.size(), "").format == "gzip");
+  CHECK(sniff_mesh(gz, gz.size(), "").refusal.empty());
+  const std::string bomb = gzipped(std::string(64 << 20, '\0'));  // 64 MiB of zeros in ~64 KB
+  const auto b = sniff_mesh(bomb.substr(0, 65536), bomb.size(), "");
+  CHECK(b.format == "gzip");
+  CHECK(b.refusal.find("inside the gzip file") != std::string::npos);
+  const std::string text = gzipped(std::string(100000, 'a'));
+  CHECK(sniff_mesh(text, text.size(), "").format.empty());  // 415: no mesh inside
+  std::string obj;
+  for (int i = 0; i < 2000; ++i) obj += "g group" + std::to_string(i) + "\no part\nusemtl m\n";
+  CHECK(sniff_mesh(obj.substr(0, 65536), obj.size() + 100, "").format == "obj");  // no vertex yet in the head
+  CHECK(sniff_mesh("g\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", 34, "").format == "obj");
+  CHECK(sniff_mesh("g only groups\n", 14, "").format.empty());  // whole and without a vertex
+  CHECK(sniff_mesh("gopher 1 2\nv 0 0 0\n", 19, "").format.empty());
+}
+
+TEST_CASE("chunked framing: RFC 9112 7.1 only, fed whole or a byte at a time") {
+  auto whole = [](const std::string& body) {
+    ChunkedFraming f;
+    return f.feed(body.data(), body.size()) && f.done();
+  };
+  auto bytewise = [](const std::string& body) {
+    ChunkedFraming f;
+    for (char c : body)
+      if (!f.feed(&c, 1)) return false;
+    return f.done();
+  };
+  for (const std::string good : {"5\r\nhello\r\n0\r\n\r\n", "5;a=b\r\nhello\r\n0\r\n\r\n", "5 ;a\r\nhello\r\n0\r\n\r\n",
+                                 "A\r\n0123456789\r\n0\r\nX-T: 1\r\n\r\n", "0\r\n\r\n"}) {
+    CHECK_MESSAGE(whole(good), good);
+    CHECK_MESSAGE(bytewise(good), good);
+  }
+  for (const std::string bad : {"0x5\r\nhello\r\n0\r\n\r\n", " 5\r\nhello\r\n0\r\n\r\n", "+5\r\nhello\r\n0\r\n\r\n",
+                                "-1\r\nhello\r\n0\r\n\r\n", "5\nhello\n0\n\n", "5\r\nhelloXX0\r\n\r\n",
+                                "5 x\r\nhello\r\n0\r\n\r\n", "1000000000000000\r\n", "0\r\n bad\r\n\r\n", "0\r\n\n"}) {
+    CHECK_MESSAGE(!whole(bad), bad);
+    CHECK_MESSAGE(!bytewise(bad), bad);
+  }
+  ChunkedFraming partial;
+  CHECK(partial.feed("5\r\nhel", 8));
+  CHECK(!partial.done());
+}
+
+TEST_CASE("job store: uploads in progress reserve their length in the quota") {
+  const std::string dir = (fs::temp_directory_path() / ("hocurved-reserve-" + std::to_string(::getpid()))).string();
+  fs::remove_all(dir);
+  {
+    JobStore store(dir);
+    CHECK(store.reserve(400, 1000));
+    CHECK(store.reserve(400, 1000));
+    CHECK(!store.reserve(400, 1000));  // 1200 > 1000: refused, nothing set aside
+    CHECK(store.reserved_bytes() == 800);
+    store.release(400);
+    CHECK(store.reserve(600, 1000));
+    store.release(400);
+    store.release(600);
+    CHECK(store.reserved_bytes() == 0);
+  }
+  fs::remove_all(dir);
 }
 
 TEST_CASE("Prometheus text: histogram and label escaping (golden)") {
