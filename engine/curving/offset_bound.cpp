@@ -129,6 +129,9 @@ OffsetBoundResult bound_offsets(const Mesh& mesh, const Topology& T, const Wedge
     });
 
   // Apply: straight + scale x offset.
+  R.face.assign(nf, 0);
+  for (int f = 0; f < nf; ++f)
+    for (int j = 0; j < 3; ++j) R.face[f] = R.face[f] || face_scale[f] < 1 || edge_scale[T.FE(f, j)] < 1;
   for (int e = 0; e < ne; ++e) {
     if (edge_scale[e] >= 1) continue;
     ++R.edges;

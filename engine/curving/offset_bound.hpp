@@ -34,6 +34,7 @@ struct OffsetBoundResult {
   long long edges = 0;     ///< edges whose offsets were scaled down
   long long faces = 0;     ///< faces whose interior offsets were scaled down
   double min_scale = 1;    ///< smallest scale applied
+  std::vector<char> face;  ///< per face: 1 where its interior or one of its edges was scaled
 };
 
 /// Unit normal of each wedge's fitted surface at its vertex (#wedges; zero where undefined: a

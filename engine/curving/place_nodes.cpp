@@ -547,6 +547,8 @@ PlacementResult place_nodes(const Mesh& mesh, const Topology& T, const Wedges& W
       }
     for (int f = 0; f < nf; ++f) R.face_exact_fits += face_fit[f] != nullptr;
   }
+  R.face_on_exact.assign(nf, 0);
+  for (int f = 0; f < nf; ++f) R.face_on_exact[f] = face_fit[f] != nullptr;
   for (int e = 0; e < ne; ++e) {
     R.curve_edges += on_curve[e];
     R.crossing_edges += R.crossing[e];

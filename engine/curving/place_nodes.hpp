@@ -36,6 +36,7 @@ struct PlacementResult {
   long long curve_edges = 0;   ///< edges placed along feature-curve fits
   long long long_edges = 0;    ///< unreached long edges placed on a PN curve (off feature curves)
   long long face_exact_fits = 0;  ///< faces whose nodes are on a neighbour's exact surface (face_fits)
+  std::vector<char> face_on_exact;  ///< per face: 1 where such a surface placed its nodes
   /// Per edge, 1 where it is off the feature curves but its faces' exact surfaces cross along it,
   /// and its nodes are on that crossing (exact_crossing_point in place_nodes.cpp).
   std::vector<char> crossing;

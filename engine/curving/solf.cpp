@@ -16,6 +16,25 @@
 
 namespace hocurve {
 
+namespace {
+
+/// Per face, the exact surface that placed its nodes (null where the placement reverted it).
+std::vector<const LocalFit*> face_fits_placed(const PlacementResult& P, std::vector<const LocalFit*> fits) {
+  for (size_t f = 0; f < fits.size(); ++f)
+    if (f >= P.face_on_exact.size() || !P.face_on_exact[f]) fits[f] = nullptr;
+  return fits;
+}
+
+/// Faces whose nodes the untangling or the repair moved (checksums before / after) are Repaired.
+void mark_repaired(const std::vector<double>& before, const std::vector<double>& after,
+                   std::vector<SurfaceModel>& models) {
+  models.resize(after.size(), SurfaceModel::Straight);
+  for (size_t f = 0; f < after.size() && f < before.size(); ++f)
+    if (after[f] != before[f]) models[f] = SurfaceModel::Repaired;
+}
+
+}  // namespace
+
 Deviation measure_deviation(const Mesh& mesh, const HighOrderMesh& hm) {
   Deviation D;
   if (mesh.num_vertices() > 0)
@@ -87,6 +106,7 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
   };
   CurveResult R;
   std::vector<ElementValidity> floor_checks;  // the untangling's element checks, for the repair
+  std::vector<double> placed_before_untangle;   // node checksums as placed: what the repairs moved
   R.method = opt.method == CurveOptions::Method::Solf ? "solf" : "linear";
   R.vertices = mesh.num_vertices();
   R.faces = mesh.num_faces();
@@ -166,6 +186,11 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
     R.long_edges_placed = P.long_edges;
     R.long_faces = long_edge.faces;
     R.planar = flatten_planar_patches(mesh, T, R.mesh, planar);
+    if (p >= 2) {
+      R.wedge_models = wedge_models(mesh, T, W, R.features, R.fits.fits);
+      R.face_models = placement_models(mesh, W, R.wedge_models, face_fits_placed(P, face_fits), long_edge.face,
+                                       planar, R.offset_bound.face);
+    }
     R.curve_edges = P.curve_edges;
     R.face_exact_fits = P.face_exact_fits;
     R.placement_seconds = P.seconds;
@@ -175,17 +200,21 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
       std::vector<char> fixed = R.features.edge_feature;
       for (size_t e = 0; e < fixed.size() && e < P.crossing.size(); ++e) fixed[e] = fixed[e] || P.crossing[e];
       const SurfaceOfFaces surface{&mesh, &W, &R.fits.fits, &planar, &face_fits, &long_edge};
+      placed_before_untangle = node_checksums(R.mesh);
       R.untangle = untangle_in_surface(T, fixed, surface, opt.validity, R.mesh, opt.untangle, &floor_checks);
     }
   }
 
   progress("validity", 0.85);
   t0 = Clock::now();
+  const std::vector<double> placed = node_checksums(R.mesh);
   // The untangling checked at max(min_scaled_jacobian, quality_floor): the repair's floor pass,
   // which runs only when the floor is the higher.
   R.validity = opt.repair ? repair_validity(R.mesh, opt.validity, std::move(floor_checks))
                           : check_validity(R.mesh, opt.validity);
   R.validity_seconds = seconds_since(t0);
+  mark_repaired(placed_before_untangle.empty() ? placed : placed_before_untangle, node_checksums(R.mesh),
+                R.face_models);
   R.deviation = measure_deviation(mesh, R.mesh);
   R.total_seconds = seconds_since(t_all);
   progress("done", 1.0);

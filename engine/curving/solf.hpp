@@ -10,6 +10,7 @@
 #include "engine/curving/long_edges.hpp"
 #include "engine/curving/offset_bound.hpp"
 #include "engine/curving/planar_patches.hpp"
+#include "engine/curving/surface_model.hpp"
 #include "engine/curving/support_points.hpp"
 #include "engine/curving/uniformity.hpp"
 #include "engine/curving/untangle.hpp"
@@ -84,6 +85,8 @@ struct CurveResult {
   long long long_faces = 0;       ///< faces with such an edge: their interior nodes are on their PN triangle
   PlanarPatchResult planar;
   OffsetBoundResult offset_bound;
+  std::vector<SurfaceModel> wedge_models;  ///< per wedge: its fit's model
+  std::vector<SurfaceModel> face_models;   ///< per face: the model that placed its nodes last
   double placement_seconds = 0;
   UntangleResult untangle;
   ValidityReport validity;

@@ -1,6 +1,18 @@
 #include "engine/curving/stats_json.hpp"
 
 namespace hocurve {
+namespace {
+
+/// {model name: count} of the models present.
+nlohmann::json model_counts(const std::vector<SurfaceModel>& models) {
+  nlohmann::json j = nlohmann::json::object();
+  const std::vector<long long> h = model_histogram(models);
+  for (size_t m = 0; m < h.size(); ++m)
+    if (h[m]) j[model_name(static_cast<SurfaceModel>(m))] = h[m];
+  return j;
+}
+
+}  // namespace
 
 nlohmann::json stats_json(const CurveResult& r) {
   using nlohmann::json;
@@ -54,6 +66,7 @@ nlohmann::json stats_json(const CurveResult& r) {
                     {"bounded_faces", r.offset_bound.faces},
                     {"bounded_min_scale", r.offset_bound.min_scale},
                     {"seconds", r.placement_seconds}};
+  j["models"] = {{"wedges", model_counts(r.wedge_models)}, {"elements", model_counts(r.face_models)}};
   j["untangle"] = {{"targets", r.untangle.targets},
                    {"patches", r.untangle.patches},
                    {"kept", r.untangle.kept},
