@@ -3,7 +3,8 @@
 #   make test   install dependencies, build, run every test with ctest
 # make bench runs the main benchmarks and rewrites the tables of bench/README.md (bench/run_all.sh).
 # make options rewrites what the option registry generates: api/openapi.yaml's and
-# api/schemas/JobOptions.json's job options, docs/options.md (scripts/gen_options.py).
+# api/schemas/JobOptions.json's job options, docs/options.md and the Python client's
+# JOB_OPTIONS (scripts/gen_options.py).
 BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """Writes the documents generated from the option registry (cli/option_registry.cpp), read through
 `hocurve options --json`: the job options' query parameters and schema in api/openapi.yaml,
-api/schemas/JobOptions.json and docs/options.md. Only those parts change; the prose around them
-is written by hand.
+api/schemas/JobOptions.json, docs/options.md and the Python client's JOB_OPTIONS. Only those parts
+change; the prose around them is written by hand.
 
 Usage: gen_options.py BUILD_DIR           rewrite the documents (`make options`)
        gen_options.py --check BUILD_DIR   exit 1 when a document differs from the registry (ctest)"""
@@ -17,6 +17,7 @@ SOURCE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OPENAPI = os.path.join("api", "openapi.yaml")
 SCHEMA = os.path.join("api", "schemas", "JobOptions.json")
 DOCS = os.path.join("docs", "options.md")
+CLIENT = os.path.join("clients", "python", "hocurve_client.py")
 JSON_TYPES = {"int": "integer", "number": "number", "choice": "string", "switch": "boolean", "flag": "boolean"}
 
 
@@ -135,6 +136,15 @@ def docs_text(reg):
     return "\n".join(lines) + "\n"
 
 
+def client_text(reg, text):
+    """The Python client's JOB_OPTIONS, between its BEGIN and END markers."""
+    begin, end = "# BEGIN generated job options\n", "# END generated job options\n"
+    lines = ["JOB_OPTIONS = {\n"] + ['    "%s": ("%s", %s),\n' % (o["key"], o["type"], json.dumps(o.get("choices")).replace("null", "None"))
+                                   for o in job_options(reg)] + ["}\n"]
+    head, rest = text.split(begin, 1)
+    return head + begin + "".join(lines) + end + rest.split(end, 1)[1]
+
+
 def main(argv):
     check = "--check" in argv
     args = [a for a in argv if a != "--check"]
@@ -143,12 +153,12 @@ def main(argv):
     reg = registry(os.path.abspath(args[0]))
     stale = []
     for rel, make in [(OPENAPI, lambda t: openapi_text(reg, t)), (SCHEMA, lambda t: schema_text(reg, t)),
-                      (DOCS, lambda t: docs_text(reg))]:
+                      (DOCS, lambda t: docs_text(reg)), (CLIENT, lambda t: client_text(reg, t))]:
         path = os.path.join(SOURCE_DIR, rel)
         old = open(path).read() if os.path.exists(path) else ""
         new = make(old)
         # The JSON documents are compared as JSON: a merged hunk written in another layout is no change.
-        if new == old or (check and rel != DOCS and json.loads(new) == json.loads(old)):
+        if new == old or (check and rel in (OPENAPI, SCHEMA) and json.loads(new) == json.loads(old)):
             continue
         stale.append(rel)
         if check:
