@@ -2,11 +2,14 @@
 #   make run    install dependencies, build, start the main job
 #   make test   install dependencies, build, run every test with ctest
 # make bench runs the main benchmarks and rewrites the tables of bench/README.md (bench/run_all.sh).
+# make options rewrites what the option registry generates: api/openapi.yaml's and
+# api/schemas/JobOptions.json's job options, docs/options.md and the Python client's
+# JOB_OPTIONS (scripts/gen_options.py).
 BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: deps build run test test-asan bench clean
+.PHONY: deps build run test test-asan bench options clean
 deps:
 	bash scripts/install-deps.sh
 
@@ -31,6 +34,11 @@ test-asan: deps
 # BENCH_ARGS=--all adds the long sweeps; BENCH_ARGS=--no-readme leaves bench/README.md alone.
 bench: build
 	bash bench/run_all.sh $(BUILD) $(BENCH_ARGS)
+
+options: deps
+	cmake -S . -B $(BUILD) -G Ninja $(CMAKE_FLAGS)
+	cmake --build $(BUILD) -j $(JOBS) --target hocurve
+	/usr/bin/python3 scripts/gen_options.py $(BUILD)
 
 clean:
 	rm -rf $(BUILD) build-asan

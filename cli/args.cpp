@@ -26,16 +26,16 @@ long long Args::get_int(const std::string& name, long long fallback, long long l
   return v;
 }
 
-double Args::get_double(const std::string& name, double fallback, double lo, double hi) const {
+double Args::get_double(const std::string& name, double fallback, double lo, double hi, bool lo_open) const {
   if (!has(name)) return fallback;
   const std::string& s = values.at(name);
   double v = 0;
   auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
   if (ec != std::errc() || p != s.data() + s.size() || !std::isfinite(v))
     throw UsageError("--" + name + " expects a number, got '" + s + "'");
-  if (v < lo || v > hi) {
+  if (v < lo || v > hi || (lo_open && v == lo)) {
     std::ostringstream os;
-    os << "--" << name << " must be in [" << lo << ", " << hi << "], got " << s;
+    os << "--" << name << " must be in " << (lo_open ? "(" : "[") << lo << ", " << hi << "], got " << s;
     throw UsageError(os.str());
   }
   return v;
@@ -89,7 +89,7 @@ std::string options_help(const std::vector<OptionSpec>& specs) {
   for (const auto& s : specs) {
     std::string left = "  ";
     left += s.short_name ? std::string("-") + s.short_name + ", " : "    ";
-    left += "--" + s.name + (s.takes_value ? " VALUE" : "");
+    left += "--" + s.name + (s.takes_value ? " " + s.value_name : "");
     os << left << std::string(left.size() < 30 ? 30 - left.size() : 1, ' ') << s.help << "\n";
   }
   return os.str();

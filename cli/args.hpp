@@ -12,6 +12,7 @@ struct OptionSpec {
   bool takes_value = true;
   std::string help;
   char short_name = 0;  ///< e.g. 'o' for -o
+  std::string value_name = "VALUE";  ///< the value's placeholder in --help
 };
 
 /// Parsed command line of one sub-command.
@@ -23,8 +24,8 @@ struct Args {
   std::string get(const std::string& name, const std::string& fallback = "") const;
   /// Integer option in [lo, hi]; throws UsageError naming the option otherwise.
   long long get_int(const std::string& name, long long fallback, long long lo, long long hi) const;
-  /// Floating-point option in [lo, hi].
-  double get_double(const std::string& name, double fallback, double lo, double hi) const;
+  /// Floating-point option in [lo, hi], or (lo, hi] when lo_open.
+  double get_double(const std::string& name, double fallback, double lo, double hi, bool lo_open = false) const;
   /// Value that must be one of `choices`.
   std::string get_choice(const std::string& name, const std::string& fallback,
                          const std::vector<std::string>& choices) const;

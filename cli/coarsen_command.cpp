@@ -1,5 +1,5 @@
 // hocurve coarsen: decimate, map and lift a coarse curved mesh (coarse lifting issue).
-#include "cli/args.hpp"
+#include "cli/command_options.hpp"
 #include "cli/commands.hpp"
 #include "cli/common.hpp"
 
@@ -23,34 +23,8 @@ namespace hocurve::cli {
 
 namespace {
 
-const std::vector<OptionSpec> kCoarsenOptions = {
-    {"output", true, "output .msh file (required)", 'o'},
-    {"order", true, "element order 1..6 (default 4; 1: the straight decimated triangles)"},
-    {"faces", true, "target number of coarse triangles (>= 4)"},
-    {"ratio", true, "target fraction of the input's triangles, in (0, 1]"},
-    {"nodes", true, "equispaced (default; what Gmsh's Lagrange elements assume) | lobatto"},
-    {"format", true, "msh41 (default) | msh22"},
-    {"binary", false, "binary .msh (little-endian, as Gmsh writes it)"},
-    {"stats", true, "write every stage's figures and timings as JSON to this file"},
-    {"threads", true, "worker threads (default: all cores)"},
-    {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
-    {"max-deviation", true, "refuse collapses moving a dense vertex > F x diagonal off the coarse faces (default 0.015; 0: off)"},
-    {"redecimate", true, "decimate again up to K times, weighting up where the curved mesh strays most, and keep the closest (default 6; 0: off)"},
-    {"tolerance", true, "then grow the face count and split edges while the curved mesh is further than F x diagonal from the input (default 0: off)"},
-    {"max-faces", true, "with --tolerance: growing and splitting stop at this many coarse triangles (default: the input's count); a decimation that could not get below it is kept as it is"},
-    {"long-edge-ratio", true, "dense edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
-    {"weld-tolerance", true, "merge vertices closer than this x the bounding-box diagonal (default 1e-9; 0: only exactly equal ones)"},
-    {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0.01; 0: only invalid ones; e.g. 0.1)"},
-    {"progress", false, "print progress as JSON lines on stdout"},
-    {"help", false, "show this help", 'h'},
-};
-
 const char* kCoarsenUsage =
-    "usage: hocurve coarsen INPUT -o OUTPUT.msh --order P (--faces N | --ratio R)\n"
-    "                       [--nodes equispaced|lobatto] [--format msh41|msh22] [--binary]\n"
-    "                       [--stats STATS.json] [--threads N] [--feature-angle DEG]\n"
-    "                       [--max-deviation F] [--redecimate K] [--tolerance F [--max-faces N]]\n"
-    "                       [--long-edge-ratio R] [--min-jacobian Q] [--progress]\n"
+    "usage: hocurve coarsen INPUT -o OUTPUT.msh (--faces N | --ratio R) [options]\n"
     "Decimates a linear triangle surface mesh to N triangles (or R x its count), keeping feature\n"
     "curves, and curves the coarse triangles to order P so that they stay on the dense surface.\n"
     "Where a few elements stray far more than the rest, the mesh is decimated again with the\n"
@@ -165,54 +139,37 @@ nlohmann::json refinement_json(const RefineResult& r, const RefineOptions& o) {
 }  // namespace
 
 int run_coarsen(int argc, char** argv) {
-  Args a = parse_args(argc, argv, 2, kCoarsenOptions);
+  Args a = parse_command_line(argc, argv, kCoarsen);
   if (a.has("help")) {
-    std::cout << kCoarsenUsage << "\noptions:\n" << options_help(kCoarsenOptions);
+    std::cout << command_help(kCoarsenUsage, kCoarsen);
     return 0;
   }
   if (a.positional.size() != 1) throw UsageError("coarsen needs exactly one INPUT file (see --help)");
   if (!a.has("output")) throw UsageError("coarsen needs -o OUTPUT.msh");
   if (a.has("faces") == a.has("ratio")) throw UsageError("coarsen needs exactly one of --faces N or --ratio R");
-  const std::string input = a.positional[0], output = a.get("output");
+  OptionSettings o;
+  apply_options(a, kCoarsen, o);
+  const std::string input = a.positional[0], output = o.output;
   check_output_path("-o", output);
-  if (a.has("stats")) check_output_path("--stats", a.get("stats"));
+  if (!o.stats.empty()) check_output_path("--stats", o.stats);
 
-  DecimateOptions dopt;
-  if (a.has("faces")) dopt.target_faces = static_cast<int>(a.get_int("faces", 0, 4, 100000000));
-  else dopt.target_ratio = a.get_double("ratio", 0.04, -HUGE_VAL, HUGE_VAL);
-  if (!(dopt.target_faces > 0 || (dopt.target_ratio > 0 && dopt.target_ratio <= 1)))
-    throw UsageError("--ratio must be in (0, 1], got " + a.get("ratio"));
-  dopt.feature_angle_deg = a.get_double("feature-angle", dopt.feature_angle_deg, 0.0, 180.0);
-  dopt.max_deviation = a.get_double("max-deviation", dopt.max_deviation, 0.0, 1.0);
-  LiftOptions lopt;
-  lopt.order = static_cast<int>(a.get_int("order", 4, 1, 6));
-  lopt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
+  DecimateOptions& dopt = o.decimate;
+  LiftOptions& lopt = o.lift;
   lopt.features = feature_options(dopt);
-  lopt.long_edges.ratio = a.get_double("long-edge-ratio", lopt.long_edges.ratio, 0.0, 1e9);
-  lopt.validity.quality_floor = a.get_double("min-jacobian", lopt.validity.quality_floor, 0.0, 0.9);
-  RefineOptions ropt;
-  ropt.tolerance = a.get_double("tolerance", 0.0, 0.0, 1.0);
-  ropt.max_faces = static_cast<int>(a.get_int("max-faces", 0, 4, 100000000));
-  if (a.has("max-faces") && !a.has("tolerance")) throw UsageError("--max-faces needs --tolerance");
-  RedecimateOptions rdo;
-  rdo.rounds = static_cast<int>(a.get_int("redecimate", rdo.rounds, 0, 100));
-  rdo.tolerance = ropt.tolerance;
-  MshOptions msh;
-  msh.version = a.get_choice("format", "msh41", {"msh41", "msh22"}) == "msh22" ? MshOptions::Version::V22
-                                                                              : MshOptions::Version::V41;
-  msh.binary = a.has("binary");
+  const RefineOptions& ropt = o.refine;
+  RedecimateOptions& rdo = o.redecimate;
+  const MshOptions& msh = o.msh;
   std::unique_ptr<tbb::global_control> threads;
-  if (a.has("threads"))
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<size_t>(a.get_int("threads", 1, 1, 1024)));
-  Progress progress{a.has("progress")};
+  if (o.threads > 0)
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  Progress progress{o.progress};
   // One 0..1 scale for the whole command: load 0-0.1, decimation 0.1-0.4, lifting 0.4-0.9, write 0.9-1.
   lopt.progress = [&](const std::string& stage, double f) {
     if (stage != "done") progress(stage, 0.4 + 0.5 * f);
   };
 
   const double t0 = now_seconds();
-  LoadedInput in = load_input(input, progress, read_options(a));
+  LoadedInput in = load_input(input, progress, o.read);
   print_input_warnings("coarsen", in);
   const double t1 = now_seconds();
   progress("decimate", 0.1);
@@ -244,7 +201,7 @@ int run_coarsen(int argc, char** argv) {
   const double t4 = now_seconds();
   progress("done", 1.0);
 
-  if (a.has("stats")) {
+  if (!o.stats.empty()) {
     nlohmann::json s;
     s["generator"] = std::string("hocurve ") + HOCURVE_VERSION;
     s["input"] = input_json(input, in);
@@ -266,7 +223,7 @@ int run_coarsen(int argc, char** argv) {
                    {"elements", out.num_faces()},
                    {"bytes", std::filesystem::file_size(output)}};
     s["seconds"] = {{"load", t1 - t0}, {"decimate", t2 - t1}, {"lift", t3 - t2}, {"write", t4 - t3}, {"total", t4 - t0}};
-    write_json_file(a.get("stats"), s);
+    write_json_file(o.stats, s);
   }
   return 0;
 }

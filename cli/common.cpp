@@ -27,12 +27,6 @@ void print_input_warnings(const std::string& cmd, const LoadedInput& in) {
     for (const std::string& w : *list) std::cerr << "hocurve " << cmd << ": warning: " << w << "\n";
 }
 
-ReadOptions read_options(const Args& a) {
-  ReadOptions r;
-  r.weld_tolerance = a.get_double("weld-tolerance", r.weld_tolerance, 0.0, 0.01);
-  return r;
-}
-
 LoadedInput load_input(const std::string& path, const Progress& progress, const ReadOptions& read) {
   LoadedInput in;
   progress("read", 0.0);

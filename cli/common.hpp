@@ -3,7 +3,6 @@
 #include "engine/core/mesh.hpp"
 #include "engine/io/read_mesh.hpp"
 #include "engine/io/validate_mesh.hpp"
-#include "cli/args.hpp"
 
 #include <nlohmann/json.hpp>
 #include <string>
@@ -27,9 +26,6 @@ struct LoadedInput {
 /// Reads and validates a mesh file; throws InputError with file and location on refusal.
 /// Prints the reader's and validation's warnings on stderr, one line each, prefixed "hocurve CMD: warning: ".
 void print_input_warnings(const std::string& cmd, const LoadedInput& in);
-
-/// The reader's options from the command line (--weld-tolerance).
-ReadOptions read_options(const Args& a);
 
 LoadedInput load_input(const std::string& path, const Progress& progress, const ReadOptions& read = {});
 

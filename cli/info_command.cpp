@@ -1,5 +1,5 @@
 // hocurve info: counts, bounding box, edge-length statistics and topology problems.
-#include "cli/args.hpp"
+#include "cli/command_options.hpp"
 #include "cli/commands.hpp"
 #include "cli/common.hpp"
 
@@ -13,13 +13,6 @@
 namespace hocurve::cli {
 
 namespace {
-const std::vector<OptionSpec> kInfoOptions = {
-    {"json", false, "print JSON instead of text"},
-    {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
-    {"weld-tolerance", true, "merge vertices closer than this x the bounding-box diagonal (default 1e-9; 0: only exactly equal ones)"},
-    {"help", false, "show this help", 'h'},
-};
-
 nlohmann::json spread_json(const Spread& s) {
   return {{"min", s.min}, {"mean", s.mean}, {"max", s.max}, {"cv", s.cv},
           {"p1", s.p1},   {"p99", s.p99},   {"p99_over_p1", s.ratio_p99_p1()}};
@@ -27,22 +20,22 @@ nlohmann::json spread_json(const Spread& s) {
 }  // namespace
 
 int run_info(int argc, char** argv) {
-  Args a = parse_args(argc, argv, 2, kInfoOptions);
+  Args a = parse_command_line(argc, argv, kInfo);
   if (a.has("help")) {
-    std::cout << "usage: hocurve info INPUT [--json]\n"
-                 "Reads and validates a mesh and prints counts, bounding box, edge-length\n"
-                 "statistics, features and topology problems.\n\noptions:\n"
-              << options_help(kInfoOptions);
+    std::cout << command_help("usage: hocurve info INPUT [options]\n"
+                              "Reads and validates a mesh and prints counts, bounding box, edge-length\n"
+                              "statistics, features and topology problems.\n",
+                              kInfo);
     return 0;
   }
   if (a.positional.size() != 1) throw UsageError("info needs exactly one INPUT file (see --help)");
+  OptionSettings o;
+  apply_options(a, kInfo, o);
   const std::string input = a.positional[0];
-  LoadedInput in = load_input(input, Progress{}, read_options(a));
+  LoadedInput in = load_input(input, Progress{}, o.read);
   const Mesh& m = in.mesh;
   Topology T = build_topology(m.F, m.num_vertices());
-  FeatureOptions fo;
-  fo.angle_deg = a.get_double("feature-angle", fo.angle_deg, 0.0, 180.0);
-  Features feat = detect_features(m, T, fo);
+  Features feat = detect_features(m, T, o.features);
   Uniformity uni = check_uniformity(m, T);
   Eigen::RowVector3d lo = m.V.colwise().minCoeff(), hi = m.V.colwise().maxCoeff();
   const long long chi = m.num_vertices() - T.num_edges() + m.num_faces();
@@ -61,7 +54,7 @@ int run_info(int argc, char** argv) {
                    {"nonmanifold_edges", feat.nonmanifold_edges},
                    {"entity_border_edges", feat.entity_border_edges},
                    {"curves", feat.curves.size()},        {"corners", feat.corners}, {"cone_points", feat.cone_points}};
-  if (a.has("json")) {
+  if (o.json) {
     std::cout << j.dump(2) << "\n";
     return 0;
   }

@@ -1,5 +1,6 @@
 #include "server/job_options.hpp"
 
+#include "cli/option_registry.hpp"
 #include "server/json_text.hpp"
 #include "server/problem.hpp"
 
@@ -7,11 +8,18 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
-#include <initializer_list>
 #include <set>
 #include <vector>
 
 namespace hocurve::server {
+
+using cli::OptionDef;
+using cli::OptionType;
+
+const int kMinOrder = int(cli::job_lo(cli::option("order")));
+const int kMaxOrder = int(cli::option("order").hi);
+const int kDefaultOrder = int(std::get<double>(cli::option("order").def));
+
 namespace {
 
 struct Errors {
@@ -90,6 +98,92 @@ bool parse_bool(const Value& x, bool& out) {
   return false;
 }
 
+// The registry's job options, in its order.
+const std::vector<const OptionDef*>& job_options() {
+  static const std::vector<const OptionDef*> list = [] {
+    std::vector<const OptionDef*> l;
+    for (const OptionDef& d : cli::option_registry())
+      if (d.modes) l.push_back(&d);
+    return l;
+  }();
+  return list;
+}
+
+unsigned mode_bit(const std::string& mode) { return mode == "coarsen" ? cli::kCoarsen : cli::kCurve; }
+
+std::string mode_names(unsigned modes) {
+  std::string s;
+  for (auto [bit, name] : {std::pair{cli::kCurve, "curve"}, {cli::kCoarsen, "coarsen"}})
+    if (modes & bit) s += std::string(s.empty() ? "" : " or ") + "mode=" + name;
+  return s;
+}
+
+// What an Int or Number accepts, as the error message words it.
+std::string accepted(const OptionDef& d) {
+  if (d.type == OptionType::Int)
+    return "an integer from " + cli::format_number(cli::job_lo(d)) + " to " + cli::format_number(d.hi);
+  const std::string s = "a number in " + cli::range_text(d, true);
+  return d.zero_means ? s + " (0: " + d.zero_means + ")" : s;
+}
+
+// One given option, typed; an error is added when it is not acceptable.
+nlohmann::json read_option(const OptionDef& d, const Value& x, Errors& err) {
+  const std::string key = d.key;
+  switch (d.type) {
+    case OptionType::Int: {
+      long long n = 0;
+      if (!parse_int(x, n) || n < cli::job_lo(d) || n > d.hi) err.add(key, key + " must be " + accepted(d) + ", got " + shown(x));
+      return n;
+    }
+    case OptionType::Number: {
+      double v = 0;
+      const bool in = parse_double(x, v) && v >= d.lo && v <= d.hi && !(d.lo_open && v == d.lo);
+      if (!in) err.add(key, key + " must be " + accepted(d) + ", got " + shown(x));
+      return v;
+    }
+    case OptionType::Choice: {
+      const std::string got = x.v.is_string() ? x.v.get<std::string>() : "";
+      if (!x.v.is_string() || std::find(d.choices.begin(), d.choices.end(), got) == d.choices.end()) {
+        std::string list;
+        for (const auto& c : d.choices) list += (list.empty() ? "'" : " or '") + c + "'";
+        err.add(key, key + " must be " + list + ", got " + (x.v.is_string() ? "'" + got + "'" : shown(x)));
+      }
+      return x.v.is_string() ? got : as_text(x.v);
+    }
+    default: {  // Switch, Flag: a boolean
+      bool on = false;
+      if (!parse_bool(x, on))
+        err.add(key, key + (x.text ? " must be 0, 1, true or false" : " must be true or false") + ", got " + shown(x));
+      return on;
+    }
+  }
+}
+
+nlohmann::json default_json(const OptionDef& d) {
+  if (const double* x = std::get_if<double>(&d.def)) {
+    if (d.type == OptionType::Int) return (long long)std::llround(*x);
+    return *x;
+  }
+  if (const bool* b = std::get_if<bool>(&d.def)) return *b;
+  return std::get<std::string>(d.def);
+}
+
+// The worker's arguments for one normalised option (none for a Flag that is off).
+std::vector<std::string> worker_args(const OptionDef& d, const nlohmann::json& v) {
+  const std::string flag = "--" + cli::flag_name(d.key);
+  switch (d.type) {
+    case OptionType::Int: return {flag, std::to_string(v.get<long long>())};
+    case OptionType::Number: {  // round-trips the double
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.17g", v.get<double>());
+      return {flag, buf};
+    }
+    case OptionType::Switch: return {flag, v.get<bool>() ? "on" : "off"};
+    case OptionType::Flag: return v.get<bool>() ? std::vector<std::string>{flag} : std::vector<std::string>{};
+    default: return {flag, v.get<std::string>()};
+  }
+}
+
 }  // namespace
 
 nlohmann::json options_from_query(const std::multimap<std::string, std::string>& params) {
@@ -106,103 +200,38 @@ nlohmann::json options_from_query(const std::multimap<std::string, std::string>&
 nlohmann::json normalise_options(const nlohmann::json& raw, const std::set<std::string>* text_keys) {
   if (!raw.is_object())
     throw ApiError(400, "invalid-options", "options must be a JSON object, got " + std::string(raw.type_name()));
-  static const std::vector<std::string> known = {"mode",          "order",     "nodes",         "format",
-                                                 "binary",        "faces",     "ratio",         "max_deviation",
-                                                 "tolerance",     "max_faces", "feature_angle", "long_edge_ratio",
-                                                 "min_jacobian",  "redecimate", "tangent_junctions", "weld_tolerance",
-                                                 "exact_quadrics"};
   const auto value = [&](const std::string& key) { return Value{raw[key], !text_keys || text_keys->count(key) > 0}; };
+  const auto known = [](const std::string& key) {
+    for (const OptionDef* d : job_options())
+      if (key == d->key) return true;
+    return false;
+  };
   Errors err;
   for (auto& [k, v] : raw.items())
-    if (std::find(known.begin(), known.end(), k) == known.end()) {
+    if (!known(k)) {
       std::string list;
-      for (const auto& name : known) list += (list.empty() ? "" : ", ") + name;
+      for (const OptionDef* d : job_options()) list += (list.empty() ? "" : ", ") + std::string(d->key);
       err.add(k, "unknown option '" + k + "' (known: " + list + ")");
     }
 
   nlohmann::json out = nlohmann::json::object();
-  std::string mode = "curve";
-  // A string option among `allowed` (JSON: a string; text: as it is), or `fallback` when absent.
-  const auto choice = [&](const char* key, std::initializer_list<const char*> allowed, const char* fallback) {
-    if (!raw.contains(key)) return std::string(fallback);
-    const Value x = value(key);
-    const std::string got = x.v.is_string() ? x.v.get<std::string>() : "";
-    std::string list;
-    for (const char* a : allowed) list += std::string(list.empty() ? "" : " or ") + "'" + a + "'";
-    if (!x.v.is_string() || std::find(allowed.begin(), allowed.end(), got) == allowed.end())
-      err.add(key, std::string(key) + " must be " + list + ", got " + (x.v.is_string() ? "'" + got + "'" : shown(x)));
-    return x.v.is_string() ? got : as_text(x.v);
-  };
-  mode = choice("mode", {"curve", "coarsen"}, "curve");
-  out["mode"] = mode;
-
-  long long order = kDefaultOrder;
-  if (raw.contains("order")) {
-    if (!parse_int(value("order"), order) || order < kMinOrder || order > kMaxOrder)
-      err.add("order", "order must be an integer from " + std::to_string(kMinOrder) + " to " +
-                           std::to_string(kMaxOrder) + ", got " + shown(value("order")));
-  }
-  out["order"] = order;
-  // An optional number `key` that ok() accepts; `what` words the accepted values for the error.
-  const auto number = [&](const char* key, bool (*ok)(double), const char* what) {
-    if (!raw.contains(key)) return;
-    double x = 0;
-    if (!parse_double(value(key), x) || !ok(x)) err.add(key, std::string(key) + " must be " + what + ", got " + shown(value(key)));
-    out[key] = x;
-  };
-  // An optional face count `key` (4 .. 1e8).
-  const auto face_count = [&](const char* key) {
-    if (!raw.contains(key)) return;
-    long long n = 0;
-    if (!parse_int(value(key), n) || n < 4 || n > 100000000)
-      err.add(key, std::string(key) + " must be an integer from 4 to 1e8, got " + shown(value(key)));
-    out[key] = n;
-  };
-  // Both modes: the feature threshold and the long-edge rule of the dense fits.
-  number("feature_angle", [](double x) { return x >= 0 && x <= 180; }, "a number of degrees in [0, 180]");
-  number("long_edge_ratio", [](double x) { return x >= 0 && x <= 1e9; }, "a number in [0, 1e9] (0: off)");
-  number("min_jacobian", [](double x) { return x >= 0 && x <= 0.9; }, "a number in [0, 0.9] (0: off)");
-  number("weld_tolerance", [](double x) { return x >= 0 && x <= 0.01; }, "a number in [0, 0.01] (0: exact only)");
-
-  if (mode == "coarsen") {
-    for (const char* k : {"nodes", "format", "binary", "tangent_junctions", "exact_quadrics"})
-      if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=curve only");
-    bool has_faces = raw.contains("faces"), has_ratio = raw.contains("ratio");
-    if (has_faces == has_ratio) err.add(has_faces ? "ratio" : "faces", "mode=coarsen needs exactly one of faces or ratio");
-    face_count("faces");
-    number("ratio", [](double x) { return x > 0 && x <= 1; }, "a number in (0, 1]");
-    number("max_deviation", [](double x) { return x >= 0 && x <= 1; }, "a number in [0, 1] (0: no limit)");
-    number("tolerance", [](double x) { return x >= 0 && x <= 1; }, "a number in [0, 1] (0: no refinement)");
-    if (raw.contains("redecimate")) {
-      long long n = 0;
-      if (!parse_int(value("redecimate"), n) || n < 0 || n > 100)
-        err.add("redecimate", "redecimate must be an integer from 0 to 100, got " + shown(value("redecimate")));
-      out["redecimate"] = n;
+  const OptionDef& mode_def = cli::option("mode");
+  out["mode"] = raw.contains("mode") ? read_option(mode_def, value("mode"), err) : default_json(mode_def);
+  const std::string mode = out["mode"].get<std::string>();
+  for (const OptionDef* d : job_options()) {
+    const std::string key = d->key;
+    if (key == "mode") continue;
+    if (!(d->modes & mode_bit(mode))) {
+      if (raw.contains(key)) err.add(key, "option '" + key + "' applies to " + mode_names(d->modes) + " only");
+      continue;
     }
-    face_count("max_faces");
-    if (raw.contains("max_faces") && !raw.contains("tolerance")) err.add("max_faces", "max_faces needs tolerance");
-  } else {
-    for (const char* k : {"faces", "ratio", "max_deviation", "redecimate", "tolerance", "max_faces"})
-      if (raw.contains(k)) err.add(k, std::string("option '") + k + "' applies to mode=coarsen only");
-    // Equispaced by default: Gmsh's Lagrange elements (and the readers that follow them) put node k
-    // at the k-th equispaced point, so Lobatto nodes read as equispaced distort the surface
-    // (measured on the unit sphere, h = 0.1, P4: 4.4e-8 equispaced, 4.8e-5 Lobatto).
-    out["nodes"] = choice("nodes", {"equispaced", "lobatto"}, "equispaced");
-    out["format"] = choice("format", {"msh41", "msh22"}, "msh41");
-    // An optional boolean `key` (text: 0/1/true/false) read into `on`; false when absent.
-    const auto flag = [&](const char* key, bool& on) {
-      if (!raw.contains(key)) return false;
-      const Value x = value(key);
-      if (!parse_bool(x, on))
-        err.add(key, std::string(key) + (x.text ? " must be 0, 1, true or false" : " must be true or false") + ", got " +
-                         shown(x));
-      return true;
-    };
-    bool binary = false, junctions = true, quadrics = true;
-    flag("binary", binary);
-    out["binary"] = binary;
-    if (flag("tangent_junctions", junctions)) out["tangent_junctions"] = junctions;  // only when given: the CLI's default is on
-    if (flag("exact_quadrics", quadrics)) out["exact_quadrics"] = quadrics;
+    if (raw.contains(key)) out[key] = read_option(*d, value(key), err);
+    else if (d->job_filled) out[key] = default_json(*d);
+    if (d->needs && raw.contains(key) && !raw.contains(d->needs)) err.add(key, key + " needs " + d->needs);
+  }
+  if (mode == "coarsen") {
+    const bool has_faces = raw.contains("faces"), has_ratio = raw.contains("ratio");
+    if (has_faces == has_ratio) err.add(has_faces ? "ratio" : "faces", "mode=coarsen needs exactly one of faces or ratio");
   }
   if (!err.list.empty()) {
     std::string detail;
@@ -214,35 +243,16 @@ nlohmann::json normalise_options(const nlohmann::json& raw, const std::set<std::
 
 std::vector<std::string> worker_argv(const std::string& program, const nlohmann::json& o, const std::string& input,
                                      const std::string& output, const std::string& stats, int threads) {
-  const auto number = [&](const char* key) {  // round-trips the double
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.17g", o[key].get<double>());
-    return std::string(buf);
-  };
-  std::vector<std::string> a = {program, o.value("mode", "curve"), input, "-o", output, "--order",
-                                std::to_string(o.value("order", kDefaultOrder))};
-  if (o.value("mode", "curve") == "coarsen") {
-    if (o.contains("faces")) a.insert(a.end(), {"--faces", std::to_string(o["faces"].get<long long>())});
-    if (o.contains("ratio")) a.insert(a.end(), {"--ratio", number("ratio")});
-    if (o.contains("max_deviation")) a.insert(a.end(), {"--max-deviation", number("max_deviation")});
-    if (o.contains("redecimate")) a.insert(a.end(), {"--redecimate", std::to_string(o["redecimate"].get<long long>())});
-    if (o.contains("tolerance")) a.insert(a.end(), {"--tolerance", number("tolerance")});
-    if (o.contains("max_faces")) a.insert(a.end(), {"--max-faces", std::to_string(o["max_faces"].get<long long>())});
-  } else {
-    a.insert(a.end(), {"--nodes", o.value("nodes", "equispaced"), "--format", o.value("format", "msh41")});
-    if (o.value("binary", false)) a.push_back("--binary");
-    if (o.contains("tangent_junctions"))
-      a.insert(a.end(), {"--tangent-junctions", o["tangent_junctions"].get<bool>() ? "on" : "off"});
-    if (o.contains("exact_quadrics"))
-      a.insert(a.end(), {"--exact-quadrics", o["exact_quadrics"].get<bool>() ? "on" : "off"});
-    a.insert(a.end(), {"--threads", std::to_string(threads)});
+  const std::string mode = o.value("mode", "curve");
+  std::vector<std::string> a = {program, mode, input, "-o", output};
+  for (const OptionDef* d : job_options()) {
+    if (std::string(d->key) == "mode" || !(d->modes & mode_bit(mode))) continue;
+    if (!o.contains(d->key) && !d->job_filled) continue;
+    const std::vector<std::string> args = worker_args(*d, o.contains(d->key) ? o[d->key] : default_json(*d));
+    a.insert(a.end(), args.begin(), args.end());
   }
-  if (o.contains("feature_angle")) a.insert(a.end(), {"--feature-angle", number("feature_angle")});
-  if (o.contains("long_edge_ratio")) a.insert(a.end(), {"--long-edge-ratio", number("long_edge_ratio")});
-  if (o.contains("min_jacobian")) a.insert(a.end(), {"--min-jacobian", number("min_jacobian")});
-  if (o.contains("weld_tolerance")) a.insert(a.end(), {"--weld-tolerance", number("weld_tolerance")});
+  if (mode == "curve") a.insert(a.end(), {"--threads", std::to_string(threads)});
   a.insert(a.end(), {"--stats", stats, "--progress"});
   return a;
 }
-
 }  // namespace hocurve::server

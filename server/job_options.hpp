@@ -8,13 +8,12 @@
 
 namespace hocurve::server {
 
-inline constexpr int kMinOrder = 2;
-inline constexpr int kMaxOrder = 6;
-inline constexpr int kDefaultOrder = 4;  ///< the CLI's default too
+// The daemon's orders, from the option registry (cli/option_registry.cpp).
+extern const int kMinOrder, kMaxOrder, kDefaultOrder;
 
-/// Validates raw options and returns them normalised with defaults filled:
-/// {mode, order, nodes, format, binary} for curve, {mode, order, faces|ratio} for coarsen, plus the
-/// optional keys given. The values of `text_keys` (the query string's) are text: integers and
+/// Validates raw options against the option registry's job options and returns them normalised,
+/// with the defaults of the options the registry marks job_filled: {mode, order, nodes, format,
+/// binary} for curve, {mode, order} for coarsen, plus the keys given. The values of `text_keys` (the query string's) are text: integers and
 /// numbers as decimal text, booleans exactly 0, 1, true or false (the API's enum); the other values
 /// (the multipart `options` part) must have the schema's JSON type: {"order": "3"} or {"binary": 1}
 /// is refused. Without text_keys (an object built in code) every string is read as text.

@@ -329,6 +329,44 @@ def _progress_bar(job, stream=sys.stderr):
     stream.flush()
 
 
+# The daemon's job options (key: kind, choices), generated from its option registry by `make options`.
+# BEGIN generated job options
+JOB_OPTIONS = {
+    "mode": ("choice", ["curve", "coarsen"]),
+    "order": ("int", None),
+    "nodes": ("choice", ["equispaced", "lobatto"]),
+    "format": ("choice", ["msh41", "msh22"]),
+    "binary": ("flag", None),
+    "tangent_junctions": ("switch", None),
+    "exact_quadrics": ("switch", None),
+    "faces": ("int", None),
+    "ratio": ("number", None),
+    "max_deviation": ("number", None),
+    "redecimate": ("int", None),
+    "tolerance": ("number", None),
+    "max_faces": ("int", None),
+    "feature_angle": ("number", None),
+    "long_edge_ratio": ("number", None),
+    "weld_tolerance": ("number", None),
+    "min_jacobian": ("number", None),
+}
+# END generated job options
+
+
+def _job_options(args):
+    """The job options given on the command line (a switch as a boolean, a flag only when set)."""
+    opts = {}
+    for key, (kind, _) in JOB_OPTIONS.items():
+        v = getattr(args, key)
+        if kind == "switch" and v is not None:
+            opts[key] = v == "on"
+        elif kind == "flag" and v:
+            opts[key] = True
+        elif kind not in ("switch", "flag") and v is not None:
+            opts[key] = v
+    return opts
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="hocurve_client", description="Client for the hocurved job service")
     ap.add_argument("--url", default=os.environ.get("HOCURVE_URL", "http://127.0.0.1:8080"))
@@ -337,23 +375,14 @@ def main(argv=None):
     sub = ap.add_subparsers(dest="cmd", required=True)
     s = sub.add_parser("submit", help="upload a mesh and create a job")
     s.add_argument("mesh")
-    s.add_argument("--mode", choices=["curve", "coarsen"])
-    s.add_argument("--order", type=int)
-    s.add_argument("--nodes", choices=["equispaced", "lobatto"])
-    s.add_argument("--format", choices=["msh41", "msh22"])
-    s.add_argument("--binary", action="store_true")
-    s.add_argument("--faces", type=int)
-    s.add_argument("--ratio", type=float)
-    s.add_argument("--max-deviation", type=float, dest="max_deviation")
-    s.add_argument("--redecimate", type=int)
-    s.add_argument("--tolerance", type=float)
-    s.add_argument("--max-faces", type=int, dest="max_faces")
-    s.add_argument("--feature-angle", type=float, dest="feature_angle")
-    s.add_argument("--long-edge-ratio", type=float, dest="long_edge_ratio")
-    s.add_argument("--min-jacobian", type=float, dest="min_jacobian")
-    s.add_argument("--weld-tolerance", type=float, dest="weld_tolerance")
-    s.add_argument("--tangent-junctions", choices=("on", "off"), dest="tangent_junctions")
-    s.add_argument("--exact-quadrics", choices=("on", "off"), dest="exact_quadrics")
+    for key, (kind, choices) in JOB_OPTIONS.items():
+        flag = "--" + key.replace("_", "-")
+        if kind == "flag":
+            s.add_argument(flag, action="store_true", dest=key)
+        elif kind == "switch":
+            s.add_argument(flag, choices=("on", "off"), dest=key)
+        else:
+            s.add_argument(flag, type={"int": int, "number": float}.get(kind, str), choices=choices, dest=key)
     s.add_argument("--idempotency-key")
     s.add_argument("--wait", action="store_true", help="wait with a progress bar")
     s.add_argument("-o", "--output", help="with --wait: download the result here")
@@ -378,16 +407,7 @@ def main(argv=None):
         if getattr(args, "output", None):
             _check_writable(args.output)  # before uploading or waiting: fail in a second, not after the job
         if args.cmd == "submit":
-            opts = {k: getattr(args, k) for k in ("mode", "order", "nodes", "format", "faces", "ratio", "max_deviation",
-                                                  "redecimate", "tolerance", "max_faces", "feature_angle", "long_edge_ratio",
-                                                  "min_jacobian", "weld_tolerance")
-                    if getattr(args, k) is not None}
-            if args.binary:
-                opts["binary"] = True
-            if args.tangent_junctions is not None:
-                opts["tangent_junctions"] = args.tangent_junctions == "on"
-            if args.exact_quadrics is not None:
-                opts["exact_quadrics"] = args.exact_quadrics == "on"
+            opts = _job_options(args)
             job = c.submit(args.mesh, opts, idempotency_key=args.idempotency_key, retries=5)
             if not args.wait:
                 out.write(json.dumps(job, indent=2) + "\n")

@@ -1,6 +1,7 @@
 // Unit tests of hocurved's pieces that need no HTTP: option validation, worker command line, format
 // sniffing, chunked framing, the Prometheus text, and the durable job store (atomic state, reload,
 // pagination, quota reservations).
+#include "cli/option_registry.hpp"
 #include "server/byte_range.hpp"
 #include "server/format_sniff.hpp"
 #include "server/http_server.hpp"
@@ -112,6 +113,33 @@ TEST_CASE("options: every offending key is reported with a JSON pointer") {
   CHECK_THROWS_AS(options_from_query({{"order", "3"}, {"order", "4"}}), ApiError);
 }
 
+TEST_CASE("options: the keys, ranges and messages are the option registry's") {
+  for (const auto& d : hocurve::cli::option_registry()) {
+    if (!d.modes || (d.type != hocurve::cli::OptionType::Int && d.type != hocurve::cli::OptionType::Number)) continue;
+    CAPTURE(d.key);
+    json raw = {{d.key, hocurve::cli::job_lo(d) - 1}};
+    if (d.modes == hocurve::cli::kCoarsen) raw["mode"] = "coarsen";
+    try {
+      normalise_options(raw);
+      FAIL("accepted below its range");
+    } catch (const ApiError& e) {
+      CHECK(std::string(e.what()).find(std::string(d.key) + " must be ") != std::string::npos);
+    }
+  }
+  try {
+    normalise_options({{"order", "1"}});  // the CLI's order 1 is no job
+    FAIL("accepted");
+  } catch (const ApiError& e) {
+    CHECK(std::string(e.what()) == "order must be an integer from 2 to 6, got 1");
+  }
+  try {
+    normalise_options({{"mode", "coarsen"}, {"faces", 50}, {"long_edge_ratio", -1}});
+    FAIL("accepted");
+  } catch (const ApiError& e) {
+    CHECK(std::string(e.what()) == "long_edge_ratio must be a number in [0, 1e9] (0: off), got -1");
+  }
+}
+
 TEST_CASE("worker command line follows the CLI contract") {
   auto a = worker_argv("/bin/hocurve", normalise_options({{"order", 4}, {"binary", true}}), "in.stl", "out.msh", "s.json", 2);
   CHECK(a == std::vector<std::string>{"/bin/hocurve", "curve", "in.stl", "-o", "out.msh", "--order", "4", "--nodes",
@@ -139,7 +167,7 @@ TEST_CASE("worker command line follows the CLI contract") {
   // The feature threshold and the long-edge rule, in both modes; refused out of range.
   a = worker_argv("h", normalise_options({{"feature_angle", "40"}, {"long_edge_ratio", 0}}), "i", "o", "s", 1);
   CHECK(a == std::vector<std::string>{"h", "curve", "i", "-o", "o", "--order", "4", "--nodes", "equispaced", "--format",
-                                      "msh41", "--threads", "1", "--feature-angle", "40", "--long-edge-ratio", "0",
+                                      "msh41", "--feature-angle", "40", "--long-edge-ratio", "0", "--threads", "1",
                                       "--stats", "s", "--progress"});
   a = worker_argv("h", normalise_options({{"mode", "coarsen"}, {"faces", 50}, {"long_edge_ratio", 3.5}}), "i", "o", "s", 1);
   CHECK(a == std::vector<std::string>{"h", "coarsen", "i", "-o", "o", "--order", "4", "--faces", "50",
