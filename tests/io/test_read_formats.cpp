@@ -7,6 +7,8 @@
 #include "io/io_test_util.hpp"
 
 #include <bit>
+#include <cmath>
+#include <numbers>
 
 using namespace hocurve;
 using namespace iotest;
@@ -309,4 +311,67 @@ TEST_CASE("detect_format on content, name only as a hint") {
   CHECK(detect_format(gzip("just some text\n"), "x.gz") == "");
   // Binary STL with trailing bytes is still found by its header count.
   CHECK(detect_format(stl_binary(m) + "trailing text", "noext") == "stl-binary");
+}
+
+TEST_CASE("an n-gon of any size gives n - 2 triangles, and the faces after it keep their corners") {
+  // A circle of n corners, then one triangle over vertices (n, n+1, n+2) of its own. tinyobjloader
+  // counted corners in 8 bits: a 1000-gon gave (1000 - 2) mod 256 = 230 triangles.
+  for (const int n : {3, 4, 5, 255, 256, 257, 258, 1000, 65537, 100000}) {
+    CAPTURE(n);
+    std::string v, obj_v, obj_face = "f", off_face = std::to_string(n), ply_face = std::to_string(n);
+    std::string ply_bin_face;
+    put<std::uint32_t>(ply_bin_face, static_cast<std::uint32_t>(n), false);
+    for (int c = 0; c < n; ++c) {
+      const double a = 2 * std::numbers::pi * c / n;
+      v += num(std::cos(a)) + " " + num(std::sin(a)) + " 0\n";
+      obj_v += "v " + num(std::cos(a)) + " " + num(std::sin(a)) + " 0\n";
+      obj_face += " " + std::to_string(c + 1);
+      off_face += " " + std::to_string(c);
+      ply_face += " " + std::to_string(c);
+      put<std::int32_t>(ply_bin_face, c, false);
+    }
+    v += "5 0 1\n6 0 1\n5 1 1\n";
+    obj_v += "v 5 0 1\nv 6 0 1\nv 5 1 1\n";
+    const int nv = n + 3;
+    std::string ply_bin_tri;
+    put<std::uint32_t>(ply_bin_tri, 3, false);
+    for (int c = n; c < nv; ++c) put<std::int32_t>(ply_bin_tri, c, false);
+    std::string ply_bin_v;
+    for (int c = 0; c < nv; ++c) {
+      const double a = 2 * std::numbers::pi * c / n;
+      const double p[3] = {c < n ? std::cos(a) : 5.0 + (c == n + 1), c < n ? std::sin(a) : double(c == n + 2), c < n ? 0.0 : 1.0};
+      for (double x : p) put<double>(ply_bin_v, x, false);
+    }
+    const std::string ply_head = "element vertex " + std::to_string(nv) + "\nproperty double x\nproperty double y\n"
+                                 "property double z\nelement face 2\nproperty list uint int vertex_indices\nend_header\n";
+    const std::vector<std::pair<std::string, std::string>> files = {
+        {"ngon.obj", obj_v + obj_face + "\nf " + std::to_string(n + 1) + " " + std::to_string(n + 2) + " -1\n"},
+        {"ngon.off", "OFF\n" + std::to_string(nv) + " 2 0\n" + v + off_face + "\n3 " + std::to_string(n) + " " +
+                         std::to_string(n + 1) + " " + std::to_string(n + 2) + "\n"},
+        {"ngon.ply", "ply\nformat ascii 1.0\n" + ply_head + v + ply_face + "\n3 " + std::to_string(n) + " " +
+                         std::to_string(n + 1) + " " + std::to_string(n + 2) + "\n"},
+        {"ngon_bin.ply", "ply\nformat binary_little_endian 1.0\n" + ply_head + ply_bin_v + ply_bin_face + ply_bin_tri},
+    };
+    for (const auto& [name, data] : files) {
+      CAPTURE(name);
+      const ReadResult r = read_mesh_bytes(data, name);
+      REQUIRE(r.mesh.num_faces() == n - 2 + 1);
+      REQUIRE(r.mesh.num_vertices() == nv);
+      for (int f = 0; f < n - 2; ++f)
+        REQUIRE(r.mesh.F.row(f).maxCoeff() < n);
+      CHECK(r.mesh.F.row(n - 2) == Eigen::RowVector3i(n, n + 1, n + 2));
+    }
+  }
+  // Beyond what any reader accepts: refused, not truncated.
+  CHECK_THROWS_WITH_AS(read_mesh_bytes("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2000000 0 1 2\n", "big.off"),
+                       doctest::Contains("bad corner count"), InputError);
+}
+
+TEST_CASE("OBJ starting with group and object lines is detected as OBJ") {
+  for (const std::string head : {"g\n", "o\n", "g part\n", "o body\ng\n", "# c\ng a b\r\no x\r\n", "s off\ng g1\n"}) {
+    CAPTURE(head);
+    const std::string text = head + "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    CHECK(detect_format(text, "") == "obj");
+    CHECK(read_mesh_bytes(text, "x").mesh.num_faces() == 1);
+  }
 }
