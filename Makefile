@@ -5,7 +5,7 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: deps build run test test-asan bench clean
+.PHONY: deps build run test test-asan fuzz bench clean
 deps:
 	bash scripts/install-deps.sh
 
@@ -26,5 +26,13 @@ test-asan: deps
 	cmake --build build-asan -j $(JOBS)
 	cd build-asan && ASAN_OPTIONS=detect_leaks=0 ctest --output-on-failure -j $(JOBS) -LE "python|slow"
 
+# libFuzzer harnesses of every reader (STL, OBJ, PLY, OFF, .msh, gzip) under ASan/UBSan, built with
+# clang, FUZZ_SECONDS each; fails on any crash, hang, leak, UB or non-InputError exception.
+FUZZ_SECONDS ?= 60
+fuzz: deps
+	cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++-14 -DHOCURVE_FUZZ=ON -DHOCURVE_TESTS=OFF
+	cmake --build build-fuzz -j $(JOBS) --target fuzz_harnesses
+	bash tests/fuzz/run.sh build-fuzz $(FUZZ_SECONDS)
+
 clean:
-	rm -rf $(BUILD) build-asan
+	rm -rf $(BUILD) build-asan build-fuzz

@@ -13,6 +13,7 @@ PACKAGES=(
   zlib1g-dev            # gzip-compressed inputs
   python3 python3-gmsh python3-numpy python3-meshio  # test-shape generation, independent read-back
   curl                  # curl client and daemon tests
+  clang-14 libclang-rt-14-dev  # `make fuzz`: libFuzzer and the sanitizers' runtimes for clang
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -62,15 +62,16 @@ bool looks_like_text(std::string_view b) {
 
 bool looks_like_obj(std::string_view head) {
   // Every non-empty, non-comment line must start with a known OBJ keyword, and one must be "v".
+  // The head is at most 64 KiB: no line limit, so a long comment header or many group lines
+  // before the first "v" do not hide an OBJ.
   bool saw_v = false;
-  std::size_t pos = 0, lines = 0;
-  while (pos < head.size() && lines < 2000) {
+  std::size_t pos = 0;
+  while (pos < head.size()) {
     std::size_t end = head.find('\n', pos);
     const bool complete = end != std::string_view::npos;
     if (!complete) end = head.size();
     std::string_view line = skip_space(head.substr(pos, end - pos));
     pos = end + 1;
-    ++lines;
     if (line.empty() || line[0] == '#') continue;
     if (!complete) break;  // the last, cut line of a partial head proves nothing
     static constexpr std::string_view keys[] = {"v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "usemtl",

@@ -71,10 +71,8 @@ void read_obj(std::string_view b, const std::string& name, ReadResult& out) {
   if (total > INT32_MAX) throw InputError(name, "too many vertices");
   Mesh& m = out.mesh;
   m.V.resize(static_cast<Eigen::Index>(total), 3);
-  // Faces as corner lists (indices from 0); split once every vertex position is known.
-  std::vector<long long> corners;
-  std::vector<std::size_t> face_end;
-  long long vertices = 0, polygons = 0, small = 0, points_lines = 0;
+  PolygonFaces faces;
+  long long vertices = 0, points_lines = 0;
   for_each_line(b, [&](long long line, std::size_t q, std::size_t e) {
     const std::string_view kw = keyword(b, q, e);
     q += kw.size();
@@ -86,7 +84,6 @@ void read_obj(std::string_view b, const std::string& name, ReadResult& out) {
     } else if (kw == "l" || kw == "p") {
       ++points_lines;
     } else if (kw == "f") {
-      const std::size_t first = corners.size();
       for (;;) {
         while (q < e && blank(b[q])) ++q;
         if (q >= e || b[q] == '#') break;
@@ -103,35 +100,15 @@ void read_obj(std::string_view b, const std::string& name, ReadResult& out) {
                                     ? " out of range (the file has " + std::to_string(total) +
                                           " vertices; OBJ counts from 1, negatives back from the last one read)"
                                     : " is not an integer"));
-        corners.push_back(v > 0 ? v - 1 : vertices + v);
+        faces.corner(v > 0 ? v - 1 : vertices + v);
         while (t < e && !blank(b[t])) ++t;
         q = t;
       }
-      const std::size_t n = corners.size() - first;
-      if (n < 3) {
-        ++small;
-        corners.resize(first);
-        return;
-      }
-      polygons += n > 3;
-      face_end.push_back(corners.size());
+      faces.end_face();
     }
     // vt, vn, g, o, s, usemtl, mtllib and unknown keywords carry nothing for the surface.
   });
-  std::vector<int> tri;
-  tri.reserve(3 * (corners.size() - 2 * face_end.size()));
-  std::vector<long long> poly;
-  std::size_t begin = 0;
-  for (const std::size_t end : face_end) {
-    poly.assign(corners.begin() + static_cast<std::ptrdiff_t>(begin), corners.begin() + static_cast<std::ptrdiff_t>(end));
-    split_polygon(m.V, poly, tri);
-    begin = end;
-  }
-  m.F.resize(static_cast<Eigen::Index>(tri.size() / 3), 3);
-  for (std::size_t f = 0; f < tri.size() / 3; ++f)
-    for (int j = 0; j < 3; ++j) m.F(f, j) = tri[3 * f + j];
-  if (polygons) out.report.warnings.push_back(polygons_warning(name, polygons));
-  if (small) out.report.warnings.push_back(name + ": " + std::to_string(small) + " faces with fewer than 3 corners ignored");
+  faces.to_triangles(m, name, out.report);
   if (points_lines) out.report.warnings.push_back(name + ": " + std::to_string(points_lines) + " point/line elements ignored");
 }
 

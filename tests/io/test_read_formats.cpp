@@ -375,3 +375,15 @@ TEST_CASE("OBJ starting with group and object lines is detected as OBJ") {
     CHECK(read_mesh_bytes(text, "x").mesh.num_faces() == 1);
   }
 }
+
+TEST_CASE("PLY faces listed before the vertices are split with the vertices' positions") {
+  // Corners 1 and 3 are closer than 0 and 2: the quadrangle is cut along 1-3, as in OBJ and OFF.
+  const std::string text =
+      "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\nelement vertex 4\n"
+      "property double x\nproperty double y\nproperty double z\nend_header\n4 0 1 2 3\n"
+      "0 0 0\n3 0 0\n3.5 1 0\n0.5 1 0\n";
+  const ReadResult r = read_mesh_bytes(text, "late_vertices.ply");
+  REQUIRE(r.mesh.num_faces() == 2);
+  CHECK(r.mesh.F.row(0) == Eigen::RowVector3i(0, 1, 3));
+  CHECK(r.mesh.F.row(1) == Eigen::RowVector3i(1, 2, 3));
+}
