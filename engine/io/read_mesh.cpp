@@ -249,13 +249,22 @@ void weld_repeated_positions(ReadResult& out, const std::string& name) {
                  " vertices repeat another vertex's exact position and were merged with it");
 }
 
-/// Merges vertices within rel x the bounding-box diagonal of each other (weld_within), keeping the
+/// Merges vertices within rel x the used vertices' bounding-box diagonal of each other (weld_within), keeping the
 /// lowest-numbered one's position.
 void weld_near_positions(ReadResult& out, const std::string& name, double rel) {
   const Mesh& m = out.mesh;
   const Eigen::Index n = m.V.rows();
-  if (n == 0 || !indices_in_range(m)) return;
-  const double tol = rel * (m.V.colwise().maxCoeff() - m.V.colwise().minCoeff()).stableNorm();
+  if (n == 0 || m.F.rows() == 0 || !indices_in_range(m)) return;
+  // The box of the vertices faces use: unreferenced far ones (validate_mesh drops them) made the
+  // tolerance so large that every used vertex merged into one.
+  Eigen::RowVector3d lo = m.V.row(m.F(0, 0)), hi = lo;
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    for (int j = 0; j < 3; ++j) {
+      lo = lo.cwiseMin(m.V.row(m.F(f, j)));
+      hi = hi.cwiseMax(m.V.row(m.F(f, j)));
+    }
+  const double tol = rel * (hi - lo).stableNorm();
+  if (!std::isfinite(tol)) return;  // a box beyond double range: validate_mesh refuses it
   std::vector<int> to_new = weld_within(m.V, tol);  // each vertex's root, then the root's new index
   std::vector<int> kept;
   for (Eigen::Index i = 0; i < n; ++i)

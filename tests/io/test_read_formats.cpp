@@ -387,3 +387,13 @@ TEST_CASE("PLY faces listed before the vertices are split with the vertices' pos
   CHECK(r.mesh.F.row(0) == Eigen::RowVector3i(0, 1, 3));
   CHECK(r.mesh.F.row(1) == Eigen::RowVector3i(1, 2, 3));
 }
+
+TEST_CASE("the near-weld tolerance comes from the vertices faces use, not from unreferenced far ones") {
+  // Unreferenced vertices at +-1e30 made the tolerance 2e21: every used vertex merged into one.
+  const Mesh m = octahedron();
+  const std::string text = obj_text(m) + "v 1e30 0 0\nv -1e30 5 5\nv 1e308 -1e308 0\n";
+  const ReadResult r = read_mesh_bytes(text, "far.obj");
+  CHECK(r.report.welded_vertices == 0);
+  CHECK(r.mesh.V.topRows(6) == m.V);
+  CHECK(r.mesh.F == m.F);
+}
