@@ -20,11 +20,13 @@ printf '%-5s %8s %10s %7s %7s  %s\n' reader cpu_s execs cov ft result > "$build/
 for h in "${harnesses[@]}"; do
   mkdir -p "$build/fuzz-corpus/$h"
   log="$build/fuzz-$h.log"
+  dict=()
+  [ -f "tests/fuzz/$h.dict" ] && dict=(-dict="tests/fuzz/$h.dict")
   # -timeout: a unit slower than 10 s is a hang; -rss_limit_mb also caps single allocations (lying
-  # counts); -max_len: the seeds are at most 16 KiB.
+  # counts); -max_len: the seeds are at most 16 KiB; -dict: the reader's keywords (tests/fuzz/<h>.dict).
   /usr/bin/time -f '%U %S' -o "$build/fuzz-$h.time" \
     "$build/fuzz_$h" -max_total_time="$secs" -timeout=10 -rss_limit_mb=2048 -max_len=16384 \
-    -print_final_stats=1 -artifact_prefix="$build/fuzz-artifacts/$h-" \
+    -print_final_stats=1 -artifact_prefix="$build/fuzz-artifacts/$h-" "${dict[@]}" \
     "$build/fuzz-corpus/$h" "$build/fuzz-seeds/$h" tests/fuzz/regressions > "$log" 2>&1
   rc=$?
   cpu=$(awk 'END { printf "%.0f", $1 + $2 }' "$build/fuzz-$h.time" 2>/dev/null || echo "?")
