@@ -198,7 +198,7 @@ TEST_CASE("OBJ: split polygons, negative indices, double precision") {
   CHECK(o.mesh.F == m.F);
 }
 
-TEST_CASE("OBJ and OFF quadrangles are cut along their shorter diagonal, larger polygons fan-split") {
+TEST_CASE("OBJ, OFF and PLY quadrangles are cut along their shorter diagonal, larger polygons fan-split") {
   // Corners 1 and 3 are closer than 0 and 2: the cut joins 1-3; the pentagon fans from corner 0.
   const std::string obj = "v 0 0 0\nv 3 0 0\nv 3.5 1 0\nv 0.5 1 0\nv 1.5 2 0\nf 1 2 3 4\nf 1 2 3 5 4\n";
   const ReadResult r = read_mesh_bytes(obj, "skew.obj");
@@ -206,11 +206,20 @@ TEST_CASE("OBJ and OFF quadrangles are cut along their shorter diagonal, larger 
   Eigen::MatrixXi F(5, 3);
   F << 0, 1, 3, 1, 2, 3, 0, 1, 2, 0, 2, 4, 0, 4, 3;
   CHECK(r.mesh.F == F);
-  const std::string off = "OFF\n4 1 0\n0 0 0\n3 0 0\n3.5 1 0\n0.5 1 0\n4 0 1 2 3\n";
-  const ReadResult o = read_mesh_bytes(off, "skew.off");
-  REQUIRE(o.mesh.num_faces() == 2);
-  CHECK(o.mesh.F.row(0) == Eigen::RowVector3i(0, 1, 3));
-  CHECK(o.mesh.F.row(1) == Eigen::RowVector3i(1, 2, 3));
+  // The PLY lists its face before its vertices: the cut still uses their positions.
+  const std::vector<std::pair<std::string, std::string>> quads = {
+      {"skew.off", "OFF\n4 1 0\n0 0 0\n3 0 0\n3.5 1 0\n0.5 1 0\n4 0 1 2 3\n"},
+      {"late_vertices.ply",
+       "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\nelement vertex 4\n"
+       "property double x\nproperty double y\nproperty double z\nend_header\n4 0 1 2 3\n"
+       "0 0 0\n3 0 0\n3.5 1 0\n0.5 1 0\n"}};
+  for (const auto& [name, text] : quads) {
+    CAPTURE(name);
+    const ReadResult o = read_mesh_bytes(text, name);
+    REQUIRE(o.mesh.num_faces() == 2);
+    CHECK(o.mesh.F.row(0) == Eigen::RowVector3i(0, 1, 3));
+    CHECK(o.mesh.F.row(1) == Eigen::RowVector3i(1, 2, 3));
+  }
 }
 
 TEST_CASE("OFF: comments, counts on the header line, quads, colours") {
@@ -374,18 +383,6 @@ TEST_CASE("OBJ starting with group and object lines is detected as OBJ") {
     CHECK(detect_format(text, "") == "obj");
     CHECK(read_mesh_bytes(text, "x").mesh.num_faces() == 1);
   }
-}
-
-TEST_CASE("PLY faces listed before the vertices are split with the vertices' positions") {
-  // Corners 1 and 3 are closer than 0 and 2: the quadrangle is cut along 1-3, as in OBJ and OFF.
-  const std::string text =
-      "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\nelement vertex 4\n"
-      "property double x\nproperty double y\nproperty double z\nend_header\n4 0 1 2 3\n"
-      "0 0 0\n3 0 0\n3.5 1 0\n0.5 1 0\n";
-  const ReadResult r = read_mesh_bytes(text, "late_vertices.ply");
-  REQUIRE(r.mesh.num_faces() == 2);
-  CHECK(r.mesh.F.row(0) == Eigen::RowVector3i(0, 1, 3));
-  CHECK(r.mesh.F.row(1) == Eigen::RowVector3i(1, 2, 3));
 }
 
 TEST_CASE("the near-weld tolerance comes from the vertices faces use, not from unreferenced far ones") {
