@@ -2,6 +2,7 @@
 # Runs every reader harness of a HOCURVE_FUZZ build for a bounded time under ASan/UBSan and reports,
 # per reader, CPU seconds, executions and libFuzzer's coverage (cov: edges, ft: features).
 # Usage: tests/fuzz/run.sh BUILD_DIR [SECONDS_EACH=60] [HARNESS...]
+#        (FUZZ_FLAGS="-use_value_profile=1" adds libFuzzer flags)
 # Seeds are made at run time (make_seeds.py, from ../shared/meshes) plus tests/fuzz/regressions/;
 # the corpus grows in BUILD_DIR/fuzz-corpus/<reader> across runs; a failing input is saved as
 # BUILD_DIR/fuzz-artifacts/<reader>-crash-* (or leak-, timeout-, oom-) and the script exits 1.
@@ -26,7 +27,7 @@ for h in "${harnesses[@]}"; do
   # counts); -max_len: the seeds are at most 16 KiB; -dict: the reader's keywords (tests/fuzz/<h>.dict).
   /usr/bin/time -f '%U %S' -o "$build/fuzz-$h.time" \
     "$build/fuzz_$h" -max_total_time="$secs" -timeout=10 -rss_limit_mb=2048 -max_len=16384 \
-    -print_final_stats=1 -artifact_prefix="$build/fuzz-artifacts/$h-" "${dict[@]}" \
+    -print_final_stats=1 -artifact_prefix="$build/fuzz-artifacts/$h-" "${dict[@]}" ${FUZZ_FLAGS:-} \
     "$build/fuzz-corpus/$h" "$build/fuzz-seeds/$h" tests/fuzz/regressions > "$log" 2>&1
   rc=$?
   cpu=$(awk 'END { printf "%.0f", $1 + $2 }' "$build/fuzz-$h.time" 2>/dev/null || echo "?")

@@ -383,6 +383,10 @@ TEST_CASE("OBJ starting with group and object lines is detected as OBJ") {
     CHECK(detect_format(text, "") == "obj");
     CHECK(read_mesh_bytes(text, "x").mesh.num_faces() == 1);
   }
+  // A long header (once more than 2000 lines were needed to see the first "v") in the sniffed 64 KiB.
+  std::string header;
+  for (int k = 0; k < 3000; ++k) header += k % 2 ? "# exported\n" : "g\n";
+  CHECK(detect_format(header + "v 0 0 0\n", "") == "obj");
 }
 
 TEST_CASE("the near-weld tolerance comes from the vertices faces use, not from unreferenced far ones") {
