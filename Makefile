@@ -9,7 +9,7 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: deps build run test test-asan bench options clean
+.PHONY: deps build run test test-asan fuzz bench options clean
 deps:
 	bash scripts/install-deps.sh
 
@@ -40,5 +40,13 @@ options: deps
 	cmake --build $(BUILD) -j $(JOBS) --target hocurve
 	/usr/bin/python3 scripts/gen_options.py $(BUILD)
 
+# libFuzzer harnesses of every reader (STL, OBJ, PLY, OFF, .msh, gzip) under ASan/UBSan, built with
+# clang, FUZZ_SECONDS each; fails on any crash, hang, leak, UB or non-InputError exception.
+FUZZ_SECONDS ?= 60
+fuzz: deps
+	cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++-14 -DHOCURVE_FUZZ=ON -DHOCURVE_TESTS=OFF
+	cmake --build build-fuzz -j $(JOBS) --target fuzz_harnesses
+	bash tests/fuzz/run.sh build-fuzz $(FUZZ_SECONDS)
+
 clean:
-	rm -rf $(BUILD) build-asan
+	rm -rf $(BUILD) build-asan build-fuzz

@@ -10,11 +10,11 @@ PACKAGES=(
   nlohmann-json3-dev    # stats, job model, HTTP API bodies
   libcpp-httplib-dev    # the daemon's HTTP server
   doctest-dev           # unit tests
-  libtinyobjloader-dev  # OBJ parsing (Gmsh cannot read OBJ)
   zlib1g-dev            # gzip-compressed inputs
   python3 python3-gmsh python3-numpy python3-meshio  # test-shape generation, independent read-back
   curl                  # curl client and daemon tests
   nginx-light           # the container's reverse proxy (docker/nginx.conf), run on loopback by tests/python/test_server_front.py
+  clang-14 libclang-rt-14-dev  # `make fuzz`: libFuzzer and the sanitizers' runtimes for clang
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -62,15 +62,16 @@ bool looks_like_text(std::string_view b) {
 
 bool looks_like_obj(std::string_view head) {
   // Every non-empty, non-comment line must start with a known OBJ keyword, and one must be "v".
+  // The head is at most 64 KiB: no line limit, so a long comment header or many group lines
+  // before the first "v" do not hide an OBJ.
   bool saw_v = false;
-  std::size_t pos = 0, lines = 0;
-  while (pos < head.size() && lines < 2000) {
+  std::size_t pos = 0;
+  while (pos < head.size()) {
     std::size_t end = head.find('\n', pos);
     const bool complete = end != std::string_view::npos;
     if (!complete) end = head.size();
     std::string_view line = skip_space(head.substr(pos, end - pos));
     pos = end + 1;
-    ++lines;
     if (line.empty() || line[0] == '#') continue;
     if (!complete) break;  // the last, cut line of a partial head proves nothing
     static constexpr std::string_view keys[] = {"v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "usemtl",
@@ -248,13 +249,22 @@ void weld_repeated_positions(ReadResult& out, const std::string& name) {
                  " vertices repeat another vertex's exact position and were merged with it");
 }
 
-/// Merges vertices within rel x the bounding-box diagonal of each other (weld_within), keeping the
+/// Merges vertices within rel x the used vertices' bounding-box diagonal of each other (weld_within), keeping the
 /// lowest-numbered one's position.
 void weld_near_positions(ReadResult& out, const std::string& name, double rel) {
   const Mesh& m = out.mesh;
   const Eigen::Index n = m.V.rows();
-  if (n == 0 || !indices_in_range(m)) return;
-  const double tol = rel * (m.V.colwise().maxCoeff() - m.V.colwise().minCoeff()).stableNorm();
+  if (n == 0 || m.F.rows() == 0 || !indices_in_range(m)) return;
+  // The box of the vertices faces use: unreferenced far ones (validate_mesh drops them) made the
+  // tolerance so large that every used vertex merged into one.
+  Eigen::RowVector3d lo = m.V.row(m.F(0, 0)), hi = lo;
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    for (int j = 0; j < 3; ++j) {
+      lo = lo.cwiseMin(m.V.row(m.F(f, j)));
+      hi = hi.cwiseMax(m.V.row(m.F(f, j)));
+    }
+  const double tol = rel * (hi - lo).stableNorm();
+  if (!std::isfinite(tol)) return;  // a box beyond double range: validate_mesh refuses it
   std::vector<int> to_new = weld_within(m.V, tol);  // each vertex's root, then the root's new index
   std::vector<int> kept;
   for (Eigen::Index i = 0; i < n; ++i)

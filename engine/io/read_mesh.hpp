@@ -12,11 +12,11 @@ struct ReadOptions {
   /// Merge exactly repeated vertex positions: STL stores each facet's own points; indexed formats
   /// (OBJ, PLY, OFF, .msh) may repeat positions at per-face exports or assembled parts' seams.
   bool weld = true;
-  /// Then merge vertices closer than this x the bounding-box diagonal (0: none): CAD exports whose
-  /// faces were tessellated apart repeat their shared border points up to the last digits, and
-  /// unmerged every such seam is an open boundary (a soup of such faces curved nothing). 1e-9 is far
-  /// below float32 STL resolution (6e-8) and any modelled detail; marching-tetrahedra vertices 3e-6
-  /// apart stay apart.
+  /// Then merge vertices closer than this x the bounding-box diagonal of the vertices faces use
+  /// (0: none): CAD exports whose faces were tessellated apart repeat their shared border points up
+  /// to the last digits, and unmerged every such seam is an open boundary (a soup of such faces
+  /// curved nothing). 1e-9 is far below float32 STL resolution (6e-8) and any modelled detail;
+  /// marching-tetrahedra vertices 3e-6 apart stay apart.
   double weld_tolerance = 1e-9;
 };
 

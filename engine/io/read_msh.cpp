@@ -242,8 +242,10 @@ void read_nodes4(Cursor& c, MshData& d) {
   const unsigned long long total = rd("the number of nodes");
   rd("the minimum node tag");
   rd("the maximum node tag");
-  c.check_fits(total, c.binary ? 32 : 8, "node");
-  c.check_fits(blocks, c.binary ? 20 : 8, "node block");
+  // Binary sizes with the file's size_t (4 or 8 bytes): a node is a tag and 3 doubles.
+  const unsigned long long st = static_cast<unsigned long long>(c.size_t_bytes);
+  c.check_fits(total, c.binary ? st + 24 : 8, "node");
+  c.check_fits(blocks, c.binary ? 12 + st : 8, "node block");
   d.node_tags.reserve(d.node_tags.size() + total);
   d.xyz.reserve(d.xyz.size() + 3 * total);
   for (unsigned long long b = 0; b < blocks; ++b) {
@@ -251,7 +253,7 @@ void read_nodes4(Cursor& c, MshData& d) {
     c.binary ? (void)c.bin<int>() : (void)c.integer("an entity tag");
     const int param = c.binary ? c.bin<int>() : static_cast<int>(c.integer("the parametric flag"));
     const unsigned long long n = rd("a block's node count");
-    c.check_fits(n, c.binary ? 32 : 8, "node");
+    c.check_fits(n, c.binary ? st + 24 : 8, "node");
     const int extra = param ? std::clamp(dim, 0, 3) : 0;
     const std::size_t first = d.node_tags.size();
     for (unsigned long long i = 0; i < n; ++i) d.node_tags.push_back(rd("a node tag"));
@@ -359,8 +361,9 @@ void read_elements4(Cursor& c, MshData& d) {
   const unsigned long long total = rd("the number of elements");
   rd("the minimum element tag");
   rd("the maximum element tag");
-  c.check_fits(total, c.binary ? 16 : 4, "element");
-  c.check_fits(blocks, c.binary ? 20 : 8, "element block");
+  const unsigned long long st = static_cast<unsigned long long>(c.size_t_bytes);
+  c.check_fits(total, c.binary ? 2 * st : 4, "element");
+  c.check_fits(blocks, c.binary ? 12 + st : 8, "element block");
   std::vector<std::uint64_t> nodes;
   for (unsigned long long b = 0; b < blocks; ++b) {
     c.binary ? (void)c.bin<int>() : (void)c.integer("an entity dimension");
@@ -368,7 +371,7 @@ void read_elements4(Cursor& c, MshData& d) {
     const int type = c.binary ? c.bin<int>() : static_cast<int>(c.integer("an element type"));
     const unsigned long long n = rd("a block's element count");
     const int nn = msh_nodes_per_element(type);
-    c.check_fits(n, c.binary ? 8ull * (1 + std::max(nn, 1)) : 4, "element");
+    c.check_fits(n, c.binary ? st * (1 + std::max(nn, 1)) : 4, "element");
     if (nn == 0 && c.binary) c.fail("element type " + std::to_string(type) + " is not supported in binary msh");
     for (unsigned long long i = 0; i < n; ++i) {
       if (!is_face(type)) {

@@ -36,17 +36,13 @@ void read_off(std::string_view b, const std::string& name, ReadResult& out) {
     }
     sc.next_line();  // colours, normals, texture coordinates
   }
-  std::vector<int> tri;
-  tri.reserve(3 * static_cast<std::size_t>(nf));
-  long long polygons = 0, small = 0;
-  std::vector<long long> poly;
+  PolygonFaces faces;
   for (long long f = 0; f < nf; ++f) {
     sc.skip_space('#');
     if (sc.remaining() == 0)
       sc.fail("unexpected end of file at face " + std::to_string(f) + " of " + std::to_string(nf));
     const long long n = sc.parse_int(sc.token_on_line(), "a face's corner count");
     if (n < 0 || n > 1000000) sc.fail("face " + std::to_string(f) + ": bad corner count " + std::to_string(n));
-    poly.clear();
     for (long long c = 0; c < n; ++c) {
       const std::string_view t = sc.token_on_line();
       if (t.empty()) sc.fail("face " + std::to_string(f) + " lists fewer than " + std::to_string(n) + " vertices");
@@ -54,18 +50,12 @@ void read_off(std::string_view b, const std::string& name, ReadResult& out) {
       if (i < 0 || i >= nv)
         sc.fail("face " + std::to_string(f) + ": vertex index " + std::to_string(i) + " out of range (the file has " +
                 std::to_string(nv) + " vertices)");
-      poly.push_back(i);
+      faces.corner(i);
     }
     sc.next_line();  // optional colour
-    if (n < 3) { ++small; continue; }
-    if (n > 3) ++polygons;
-    split_polygon(m.V, poly, tri);
+    faces.end_face();
   }
-  m.F.resize(static_cast<Eigen::Index>(tri.size() / 3), 3);
-  for (std::size_t f = 0; f < tri.size() / 3; ++f)
-    for (int j = 0; j < 3; ++j) m.F(f, j) = tri[3 * f + j];
-  if (polygons) out.report.warnings.push_back(polygons_warning(name, polygons));
-  if (small) out.report.warnings.push_back(name + ": " + std::to_string(small) + " faces with fewer than 3 corners ignored");
+  faces.to_triangles(m, name, out.report);
 }
 
 }  // namespace hocurve::io_detail

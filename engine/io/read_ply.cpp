@@ -8,6 +8,7 @@
 #include <bit>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <sstream>
 
@@ -181,20 +182,19 @@ void read_ply(std::string_view b, const std::string& name, ReadResult& out) {
 
   Mesh& m = out.mesh;
   m.V.resize(static_cast<Eigen::Index>(ve->count), 3);
-  std::vector<int> tri;
-  long long polygons = 0, small = 0;
   const long long nv = static_cast<long long>(ve->count);
-  auto add_face = [&](const std::vector<long long>& poly, unsigned long long f) {
-    for (std::size_t c = 0; c < poly.size(); ++c)
-      if (poly[c] < 0 || poly[c] >= nv)
-        throw InputError(name + ": face " + std::to_string(f),
-                         "vertex index " + std::to_string(poly[c]) + " out of range (the file has " +
-                             std::to_string(nv) + " vertices)");
-    if (poly.size() < 3) { ++small; return; }
-    if (poly.size() > 3) ++polygons;
-    split_polygon(m.V, poly, tri);
+  PolygonFaces faces;
+  // Indices arrive as doubles (any list item type, float included): converting one beyond long long
+  // is undefined, so anything but a whole number in [0, nv) is refused here, with its value.
+  auto index = [&](double v, const std::string& where) {
+    if (!(v >= 0 && v < static_cast<double>(nv)) || v != std::floor(v)) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.10g", v);
+      throw InputError(where, std::string("vertex index ") + buf + " out of range (the file has " +
+                                  std::to_string(nv) + " vertices)");
+    }
+    return static_cast<long long>(v);
   };
-  std::vector<long long> poly;
 
   if (format == "ascii") {
     TextScanner sc(b, name);
@@ -225,12 +225,11 @@ void read_ply(std::string_view b, const std::string& name, ReadResult& out) {
           } else {
             const double c = num();
             if (c < 0 || c != std::floor(c) || c > 1e6) throw InputError(where(e, i), "bad list length");
-            if (is_f && pi == fidx) poly.clear();
             for (long long k = 0; k < static_cast<long long>(c); ++k) {
               const double v = num();
-              if (is_f && pi == fidx) poly.push_back(static_cast<long long>(v));
+              if (is_f && pi == fidx) faces.corner(index(v, where(e, i)));
             }
-            if (is_f && pi == fidx) add_face(poly, i);
+            if (is_f && pi == fidx) faces.end_face();
           }
         }
       }
@@ -252,23 +251,18 @@ void read_ply(std::string_view b, const std::string& name, ReadResult& out) {
             if (static_cast<unsigned long long>(c) * type_size(p.type) > br.remaining())
               throw InputError(where, "list of " + std::to_string(static_cast<long long>(c)) +
                                           " items runs past the end of the file");
-            if (is_f && pi == fidx) poly.clear();
             for (long long k = 0; k < static_cast<long long>(c); ++k) {
               const double v = br.read(p.type, where);
-              if (is_f && pi == fidx) poly.push_back(static_cast<long long>(v));
+              if (is_f && pi == fidx) faces.corner(index(v, where));
             }
-            if (is_f && pi == fidx) add_face(poly, i);
+            if (is_f && pi == fidx) faces.end_face();
           }
         }
       }
     }
   }
-  m.F.resize(static_cast<Eigen::Index>(tri.size() / 3), 3);
-  for (std::size_t f = 0; f < tri.size() / 3; ++f)
-    for (int j = 0; j < 3; ++j) m.F(f, j) = tri[3 * f + j];
+  faces.to_triangles(m, name, out.report);
   out.report.format = format == "ascii" ? "ply-ascii" : "ply-binary";
-  if (polygons) out.report.warnings.push_back(polygons_warning(name, polygons));
-  if (small) out.report.warnings.push_back(name + ": " + std::to_string(small) + " faces with fewer than 3 corners ignored");
 }
 
 }  // namespace hocurve::io_detail

@@ -275,7 +275,8 @@ ValidateReport validate_mesh(Mesh& m, const ValidateOptions& opt) {
       parent.resize(k);
       std::iota(parent.begin(), parent.end(), 0);
       auto find = [&](int x) { while (parent[x] != x) x = parent[x] = parent[parent[x]]; return x; };
-      auto local = [&](int f) { return static_cast<int>(std::lower_bound(fb, fe, f) - fb); };
+      // Explicit captures: clang 14 (the fuzzing build) cannot capture structured bindings by [&].
+      auto local = [fb = fb, fe = fe](int f) { return static_cast<int>(std::lower_bound(fb, fe, f) - fb); };
       int groups = k;
       const auto [eb, ee] = T.edges_of(v);
       for (const int* e = eb; e != ee && groups > 1; ++e) {

@@ -92,6 +92,13 @@ TEST_CASE("out-of-range indices are located") {
   refused("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
           "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 -1\n",
           "i.ply", {"face 0", "index -1 out of range"});
+  // Found by fuzzing: an index beyond long long (UB when converted), and a fractional one (float lists).
+  refused("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+          "element face 1\nproperty list uchar float vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3e37\n",
+          "i.ply", {"face 0", "index 3e+37 out of range"});
+  refused("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+          "element face 1\nproperty list uchar float vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1.5\n",
+          "i.ply", {"face 0", "index 1.5 out of range"});
   Mesh m = octahedron();
   m.F(3, 2) = 6;
   CHECK_THROWS_WITH_AS(validate_mesh(m), "face 3: vertex index 6 out of range [0, 6)", InputError);

@@ -7,6 +7,8 @@
 #include "io/io_test_util.hpp"
 
 #include <bit>
+#include <cmath>
+#include <numbers>
 
 using namespace hocurve;
 using namespace iotest;
@@ -196,7 +198,7 @@ TEST_CASE("OBJ: split polygons, negative indices, double precision") {
   CHECK(o.mesh.F == m.F);
 }
 
-TEST_CASE("OBJ and OFF quadrangles are cut along their shorter diagonal, larger polygons fan-split") {
+TEST_CASE("OBJ, OFF and PLY quadrangles are cut along their shorter diagonal, larger polygons fan-split") {
   // Corners 1 and 3 are closer than 0 and 2: the cut joins 1-3; the pentagon fans from corner 0.
   const std::string obj = "v 0 0 0\nv 3 0 0\nv 3.5 1 0\nv 0.5 1 0\nv 1.5 2 0\nf 1 2 3 4\nf 1 2 3 5 4\n";
   const ReadResult r = read_mesh_bytes(obj, "skew.obj");
@@ -204,11 +206,20 @@ TEST_CASE("OBJ and OFF quadrangles are cut along their shorter diagonal, larger 
   Eigen::MatrixXi F(5, 3);
   F << 0, 1, 3, 1, 2, 3, 0, 1, 2, 0, 2, 4, 0, 4, 3;
   CHECK(r.mesh.F == F);
-  const std::string off = "OFF\n4 1 0\n0 0 0\n3 0 0\n3.5 1 0\n0.5 1 0\n4 0 1 2 3\n";
-  const ReadResult o = read_mesh_bytes(off, "skew.off");
-  REQUIRE(o.mesh.num_faces() == 2);
-  CHECK(o.mesh.F.row(0) == Eigen::RowVector3i(0, 1, 3));
-  CHECK(o.mesh.F.row(1) == Eigen::RowVector3i(1, 2, 3));
+  // The PLY lists its face before its vertices: the cut still uses their positions.
+  const std::vector<std::pair<std::string, std::string>> quads = {
+      {"skew.off", "OFF\n4 1 0\n0 0 0\n3 0 0\n3.5 1 0\n0.5 1 0\n4 0 1 2 3\n"},
+      {"late_vertices.ply",
+       "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\nelement vertex 4\n"
+       "property double x\nproperty double y\nproperty double z\nend_header\n4 0 1 2 3\n"
+       "0 0 0\n3 0 0\n3.5 1 0\n0.5 1 0\n"}};
+  for (const auto& [name, text] : quads) {
+    CAPTURE(name);
+    const ReadResult o = read_mesh_bytes(text, name);
+    REQUIRE(o.mesh.num_faces() == 2);
+    CHECK(o.mesh.F.row(0) == Eigen::RowVector3i(0, 1, 3));
+    CHECK(o.mesh.F.row(1) == Eigen::RowVector3i(1, 2, 3));
+  }
 }
 
 TEST_CASE("OFF: comments, counts on the header line, quads, colours") {
@@ -309,4 +320,81 @@ TEST_CASE("detect_format on content, name only as a hint") {
   CHECK(detect_format(gzip("just some text\n"), "x.gz") == "");
   // Binary STL with trailing bytes is still found by its header count.
   CHECK(detect_format(stl_binary(m) + "trailing text", "noext") == "stl-binary");
+}
+
+TEST_CASE("an n-gon of any size gives n - 2 triangles, and the faces after it keep their corners") {
+  // A circle of n corners, then one triangle over vertices (n, n+1, n+2) of its own. tinyobjloader
+  // counted corners in 8 bits: a 1000-gon gave (1000 - 2) mod 256 = 230 triangles.
+  for (const int n : {3, 4, 5, 255, 256, 257, 258, 1000, 65537, 100000}) {
+    CAPTURE(n);
+    std::string v, obj_v, obj_face = "f", off_face = std::to_string(n), ply_face = std::to_string(n);
+    std::string ply_bin_face;
+    put<std::uint32_t>(ply_bin_face, static_cast<std::uint32_t>(n), false);
+    for (int c = 0; c < n; ++c) {
+      const double a = 2 * std::numbers::pi * c / n;
+      v += num(std::cos(a)) + " " + num(std::sin(a)) + " 0\n";
+      obj_v += "v " + num(std::cos(a)) + " " + num(std::sin(a)) + " 0\n";
+      obj_face += " " + std::to_string(c + 1);
+      off_face += " " + std::to_string(c);
+      ply_face += " " + std::to_string(c);
+      put<std::int32_t>(ply_bin_face, c, false);
+    }
+    v += "5 0 1\n6 0 1\n5 1 1\n";
+    obj_v += "v 5 0 1\nv 6 0 1\nv 5 1 1\n";
+    const int nv = n + 3;
+    std::string ply_bin_tri;
+    put<std::uint32_t>(ply_bin_tri, 3, false);
+    for (int c = n; c < nv; ++c) put<std::int32_t>(ply_bin_tri, c, false);
+    std::string ply_bin_v;
+    for (int c = 0; c < nv; ++c) {
+      const double a = 2 * std::numbers::pi * c / n;
+      const double p[3] = {c < n ? std::cos(a) : 5.0 + (c == n + 1), c < n ? std::sin(a) : double(c == n + 2), c < n ? 0.0 : 1.0};
+      for (double x : p) put<double>(ply_bin_v, x, false);
+    }
+    const std::string ply_head = "element vertex " + std::to_string(nv) + "\nproperty double x\nproperty double y\n"
+                                 "property double z\nelement face 2\nproperty list uint int vertex_indices\nend_header\n";
+    const std::vector<std::pair<std::string, std::string>> files = {
+        {"ngon.obj", obj_v + obj_face + "\nf " + std::to_string(n + 1) + " " + std::to_string(n + 2) + " -1\n"},
+        {"ngon.off", "OFF\n" + std::to_string(nv) + " 2 0\n" + v + off_face + "\n3 " + std::to_string(n) + " " +
+                         std::to_string(n + 1) + " " + std::to_string(n + 2) + "\n"},
+        {"ngon.ply", "ply\nformat ascii 1.0\n" + ply_head + v + ply_face + "\n3 " + std::to_string(n) + " " +
+                         std::to_string(n + 1) + " " + std::to_string(n + 2) + "\n"},
+        {"ngon_bin.ply", "ply\nformat binary_little_endian 1.0\n" + ply_head + ply_bin_v + ply_bin_face + ply_bin_tri},
+    };
+    for (const auto& [name, data] : files) {
+      CAPTURE(name);
+      const ReadResult r = read_mesh_bytes(data, name);
+      REQUIRE(r.mesh.num_faces() == n - 2 + 1);
+      REQUIRE(r.mesh.num_vertices() == nv);
+      for (int f = 0; f < n - 2; ++f)
+        REQUIRE(r.mesh.F.row(f).maxCoeff() < n);
+      CHECK(r.mesh.F.row(n - 2) == Eigen::RowVector3i(n, n + 1, n + 2));
+    }
+  }
+  // Beyond what any reader accepts: refused, not truncated.
+  CHECK_THROWS_WITH_AS(read_mesh_bytes("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2000000 0 1 2\n", "big.off"),
+                       doctest::Contains("bad corner count"), InputError);
+}
+
+TEST_CASE("OBJ starting with group and object lines is detected as OBJ") {
+  for (const std::string head : {"g\n", "o\n", "g part\n", "o body\ng\n", "# c\ng a b\r\no x\r\n", "s off\ng g1\n"}) {
+    CAPTURE(head);
+    const std::string text = head + "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    CHECK(detect_format(text, "") == "obj");
+    CHECK(read_mesh_bytes(text, "x").mesh.num_faces() == 1);
+  }
+  // A long header (once more than 2000 lines were needed to see the first "v") in the sniffed 64 KiB.
+  std::string header;
+  for (int k = 0; k < 3000; ++k) header += k % 2 ? "# exported\n" : "g\n";
+  CHECK(detect_format(header + "v 0 0 0\n", "") == "obj");
+}
+
+TEST_CASE("the near-weld tolerance comes from the vertices faces use, not from unreferenced far ones") {
+  // Unreferenced vertices at +-1e30 made the tolerance 2e21: every used vertex merged into one.
+  const Mesh m = octahedron();
+  const std::string text = obj_text(m) + "v 1e30 0 0\nv -1e30 5 5\nv 1e308 -1e308 0\n";
+  const ReadResult r = read_mesh_bytes(text, "far.obj");
+  CHECK(r.report.welded_vertices == 0);
+  CHECK(r.mesh.V.topRows(6) == m.V);
+  CHECK(r.mesh.F == m.F);
 }

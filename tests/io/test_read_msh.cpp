@@ -239,3 +239,26 @@ TEST_CASE("msh: lying counts and missing nodes are InputErrors with a location")
   refused("$MeshFormat\n3.0 0 8\n$EndMeshFormat\n", "not supported");
   refused("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1\n1 0 0 0\n$EndNodes\n", "no $Elements");
 }
+
+TEST_CASE("msh 4.1 binary with a 4-byte size_t: counts checked against 4-byte fields") {
+  // 12 triangles over 3 nodes: 16 bytes each; checking them as 8-byte fields refused the file.
+  std::string s = "$MeshFormat\n4.1 1 4\n";
+  const auto put = [&s](auto v) { s.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  put(1);
+  s += "\n$EndMeshFormat\n$Nodes\n";
+  for (std::uint32_t v : {1u, 3u, 1u, 3u}) put(v);
+  put(2), put(1), put(0), put(std::uint32_t{3});
+  for (std::uint32_t t : {1u, 2u, 3u}) put(t);
+  for (double x : {0., 0., 0., 1., 0., 0., 0., 1., 0.}) put(x);
+  s += "\n$EndNodes\n$Elements\n";
+  const std::uint32_t n = 12;
+  for (std::uint32_t v : {1u, n, 1u, n}) put(v);
+  put(2), put(1), put(2), put(n);
+  for (std::uint32_t e = 1; e <= n; ++e)
+    for (std::uint32_t v : {e, 1u, 2u, 3u}) put(v);
+  s += "\n$EndElements\n";
+  const ReadResult r = read_mesh_bytes(s, "st4.msh", {.weld = false});
+  CHECK(r.report.format == "msh4");
+  CHECK(r.mesh.num_faces() == 12);
+  CHECK(r.mesh.num_vertices() == 3);
+}
