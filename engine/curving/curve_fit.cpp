@@ -227,6 +227,68 @@ CurveFit fit_curve_at(const Mesh& mesh, const Topology& T, const Features& feat,
   return C;
 }
 
+namespace {
+
+/// Whether c lies on the line through a and b to the input's rounding (ExactQuadricOptions).
+bool collinear(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+               const ExactQuadricOptions& exact) {
+  const Eigen::Vector3d u = b - a;
+  if (!(u.norm() > 0)) return false;
+  const double scale = std::max({a.norm(), b.norm(), c.norm()});
+  const double rounding = std::max(exact.rounding > 0 ? exact.rounding : std::ldexp(1.0, -24), 1e-8);
+  return (c - a).cross(u).norm() / u.norm() <= exact.tolerance * rounding * scale;
+}
+
+/// The line from a to b as a curve fit (no offsets).
+CurveFit line_fit(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  CurveFit C;
+  C.o = a;
+  C.h = (b - a).norm();
+  C.t = (b - a) / C.h;
+  tangent_frame(C.t, C.n1, C.n2);
+  return C;
+}
+
+/// Straight curve edges: an edge of a feature curve whose ends and a neighbour along the curve lie
+/// on one line (to rounding) is a line segment, as three points of a smooth CAD curve are collinear
+/// only on a straight piece. Its end fits become that line: a fit through the chain bends where a
+/// line meets an arc and carries the arc into the line's last edge (a rib's top edge beside a hole,
+/// 1e-2 out of both its planes). Returns the number of edges made straight.
+long long straighten_line_edges(const Mesh& mesh, const Topology& T, const Features& feat,
+                                const FitOptions& opt, CurveFitResult& R) {
+  auto edge_between = [&](int a, int b) {
+    auto [first, last] = T.edges_of(a);
+    for (const int* e = first; e != last; ++e)
+      if (T.other(*e, a) == b) return *e;
+    return -1;
+  };
+  long long n = 0;
+  for (const std::vector<int>& c : feat.curves) {
+    const int m = static_cast<int>(c.size());
+    const bool closed = m > 2 && c.front() == c.back();
+    auto at = [&](int i) -> int {  // chain vertex i, wrapping round a closed curve, -1 past an end
+      if (closed) return c[((i % (m - 1)) + (m - 1)) % (m - 1)];
+      return i >= 0 && i < m ? c[i] : -1;
+    };
+    for (int i = 0; i + 1 < m; ++i) {
+      const int e = edge_between(c[i], c[i + 1]);
+      if (e < 0 || !R.fitted_edge(e)) continue;
+      const Eigen::Vector3d a = mesh.V.row(c[i]).transpose(), b = mesh.V.row(c[i + 1]).transpose();
+      bool line = false;
+      for (int k : {at(i - 1), at(i + 2)})
+        line = line || (k >= 0 && k != c[i] && k != c[i + 1] && collinear(a, b, mesh.V.row(k).transpose(), opt.exact));
+      if (!line) continue;
+      const bool forward = T.E(e, 0) == c[i];
+      R.fits[R.first[e]] = line_fit(forward ? a : b, forward ? b : a);
+      R.fits[R.first[e] + 1] = R.fits[R.first[e]];
+      ++n;
+    }
+  }
+  return n;
+}
+
+}  // namespace
+
 CurveFitResult fit_feature_curves(const Mesh& mesh, const Topology& T, const Features& feat,
                                   int p, const FitOptions& opt) {
   const auto t0 = Clock::now();
@@ -245,6 +307,7 @@ CurveFitResult fit_feature_curves(const Mesh& mesh, const Topology& T, const Fea
     ++R.fitted;
     if (c.degree < p) ++R.downgraded;
   }
+  R.straight = straighten_line_edges(mesh, T, feat, opt, R);
   R.seconds = seconds_since(t0);
   return R;
 }

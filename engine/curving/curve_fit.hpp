@@ -47,6 +47,7 @@ struct CurveFitResult {
   /// Whether edge e has curve fits.
   bool fitted_edge(int e) const { return !first.empty() && first[e] >= 0; }
   long long fitted = 0, downgraded = 0;
+  long long straight = 0;  ///< edges on a line (their ends and a neighbour along the curve collinear)
   double seconds = 0;
 };
 

@@ -8,7 +8,9 @@
 // planes allow, the fits contradict themselves: a stencil that reached onto another CAD face, a
 // curve fit extrapolating past a coarse corner. There the element can end farther from the
 // surface than its straight self, so its offsets are scaled down to the bound; flat corners
-// (tangent planes containing the element) keep it flat.
+// (tangent planes containing the element) keep it flat. The tilt is the fits' own: the input mesh's
+// (its faces' normals round each corner) is too coarse a measure of it (a torus at h = 0.1 and a
+// CAD screw at diag/40: P4 6.8e-7 -> 1.4e-3 and 3.3e-4 -> 6.6e-2 with the smaller of the two).
 #pragma once
 #include "engine/core/mesh.hpp"
 #include "engine/core/topology.hpp"
@@ -40,6 +42,7 @@ struct OffsetBoundResult {
 /// Unit normal of each wedge's fitted surface at its vertex (#wedges; zero where undefined: a
 /// cone model's apex, or no fit).
 std::vector<Eigen::Vector3d> wedge_normals(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits);
+
 
 /// Scales the offsets (from the straight positions) of hm's edge and face nodes down to the bound
 /// above, per edge and per face (a face's interior by at most its edges' scale too), so the mesh

@@ -51,6 +51,7 @@ nlohmann::json stats_json(const CurveResult& r) {
                {"mean_stencil_points", r.fits.mean_points},
                {"seconds", r.fits.seconds}};
   j["curve_fits"] = {{"fitted", r.curve_fits.fitted}, {"downgraded", r.curve_fits.downgraded},
+                     {"straight_edges", r.curve_fits.straight},
                      {"seconds", r.curve_fits.seconds}};
   j["placement"] = {{"curve_edges", r.curve_edges},
                     {"face_exact_fits", r.face_exact_fits},
