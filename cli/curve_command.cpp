@@ -2,13 +2,12 @@
 #include "cli/args.hpp"
 #include "cli/commands.hpp"
 #include "cli/common.hpp"
+#include "cli/curve_options.hpp"
 
 #include "engine/core/error.hpp"
 #include "engine/curving/solf.hpp"
 #include "engine/curving/stats_json.hpp"
 #include "engine/highorder/write_msh.hpp"
-
-#include <tbb/global_control.h>
 
 #include <filesystem>
 #include <iostream>
@@ -18,27 +17,14 @@ namespace hocurve::cli {
 
 namespace {
 
-const std::vector<OptionSpec> kCurveOptions = {
-    {"output", true, "output .msh file (required)", 'o'},
-    {"order", true, "element order 1..6 (default 4)"},
-    {"method", true, "solf (default: fitted surface) | linear (nodes on the flat facets)"},
-    {"nodes", true, "equispaced (default; what Gmsh's Lagrange elements assume) | lobatto"},
-    {"format", true, "msh41 (default) | msh22"},
-    {"binary", false, "binary .msh (little-endian, as Gmsh writes it)"},
-    {"stats", true, "write every stage's figures and timings as JSON to this file"},
-    {"threads", true, "worker threads (default: all cores)"},
-    {"feature-angle", true, "dihedral angle in degrees above which an edge is sharp (default 35)"},
-    {"tangent-junctions", true, "on (default: smooth borders where the curvature jumps, as a fillet's, are feature curves) | off"},
-    {"exact-quadrics", true, "on (default: where vertices lie on a plane, sphere, cylinder, cone, ellipsoid or torus to rounding, fit it, however coarse) | off"},
-    {"long-edge-ratio", true, "edges longer than this x the median edge at an end take PN triangles (default 2; 0: off)"},
-    {"weld-tolerance", true, "merge vertices closer than this x the bounding-box diagonal (default 1e-9; 0: only exactly equal ones)"},
-    {"support", true, "auto (default: when the triangulation is non-uniform) | on | off"},
-    {"seed", true, "seed of the random support samples (default 1)"},
-    {"untangle", true, "on (default: folded elements first have their nodes off feature curves moved along the surface) | off (only pulled toward straight)"},
-    {"min-jacobian", true, "also pull valid elements whose min J/J_straight is at or below Q toward straight (default 0.01; 0: only invalid ones; e.g. 0.1)"},
-    {"progress", false, "print progress as JSON lines on stdout"},
-    {"help", false, "show this help", 'h'},
-};
+// The shared options plus curve's own: --method and --nodes.
+std::vector<OptionSpec> curve_specs() {
+  std::vector<OptionSpec> specs = curve_option_specs("element order 1..6 (default 4)");
+  specs.insert(specs.begin() + 2,
+               {{"method", true, "solf (default: fitted surface) | linear (nodes on the flat facets)"},
+                {"nodes", true, "equispaced (default; what Gmsh's Lagrange elements assume) | lobatto"}});
+  return specs;
+}
 
 const char* kCurveUsage =
     "usage: hocurve curve INPUT -o OUTPUT.msh [--order P] [--nodes equispaced|lobatto]\n"
@@ -49,9 +35,10 @@ const char* kCurveUsage =
 }  // namespace
 
 int run_curve(int argc, char** argv) {
-  Args a = parse_args(argc, argv, 2, kCurveOptions);
+  const std::vector<OptionSpec> specs = curve_specs();
+  Args a = parse_args(argc, argv, 2, specs);
   if (a.has("help")) {
-    std::cout << kCurveUsage << "\noptions:\n" << options_help(kCurveOptions);
+    std::cout << kCurveUsage << "\noptions:\n" << options_help(specs);
     return 0;
   }
   if (a.positional.size() != 1) throw UsageError("curve needs exactly one INPUT file (see --help)");
@@ -60,30 +47,12 @@ int run_curve(int argc, char** argv) {
   check_output_path("-o", output);
   if (a.has("stats")) check_output_path("--stats", a.get("stats"));
 
-  CurveOptions opt;
-  opt.order = static_cast<int>(a.get_int("order", 4, 1, 6));
+  CurveOptions opt = parse_curve_options(a, 6);
   opt.method = a.get_choice("method", "solf", {"solf", "linear"}) == "linear" ? CurveOptions::Method::Linear
                                                                              : CurveOptions::Method::Solf;
   opt.distribution = parse_node_distribution(a.get_choice("nodes", "equispaced", {"equispaced", "lobatto"}));
-  opt.features.angle_deg = a.get_double("feature-angle", opt.features.angle_deg, 0.0, 180.0);
-  opt.features.tangent_junctions = a.get_choice("tangent-junctions", "on", {"on", "off"}) == "on";
-  opt.features.exact_quadrics = opt.fit.exact_quadrics = a.get_choice("exact-quadrics", "on", {"on", "off"}) == "on";
-  opt.long_edges.ratio = a.get_double("long-edge-ratio", opt.long_edges.ratio, 0.0, 1e9);
-  opt.untangle.enabled = a.get_choice("untangle", "on", {"on", "off"}) == "on";
-  opt.validity.quality_floor = a.get_double("min-jacobian", opt.validity.quality_floor, 0.0, 0.9);
-  const std::string support = a.get_choice("support", "auto", {"auto", "on", "off"});
-  opt.use_support = support == "on"    ? Tristate::On
-                    : support == "off" ? Tristate::Off
-                                       : Tristate::Auto;
-  opt.support.seed = static_cast<std::uint64_t>(a.get_int("seed", 1, 0, (1LL << 62)));
-  MshOptions msh;
-  msh.version = a.get_choice("format", "msh41", {"msh41", "msh22"}) == "msh22" ? MshOptions::Version::V22
-                                                                              : MshOptions::Version::V41;
-  msh.binary = a.has("binary");
-  std::unique_ptr<tbb::global_control> threads;
-  if (a.has("threads"))
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<size_t>(a.get_int("threads", 1, 1, 1024)));
+  const MshOptions msh = parse_msh_options(a);
+  const auto threads = thread_limit(a);
   Progress progress{a.has("progress")};
   // One 0..1 scale for the whole command: load 0-0.1, curving 0.1-0.9, writing 0.9-1.
   opt.progress = [&](const std::string& stage, double f) { progress(stage, 0.1 + 0.8 * f); };

@@ -15,6 +15,7 @@ const char* kUsage =
     "  curve    INPUT -o OUTPUT.msh --order P   curve a linear surface mesh into order-P triangles\n"
     "  coarsen  INPUT -o OUTPUT.msh --order P (--faces N | --ratio R)\n"
     "                                           decimate and lift a coarse curved mesh onto the input\n"
+    "  volume   INPUT -o OUTPUT.msh --order P   fill a closed surface with order-P curved tets\n"
     "  info     INPUT [--json]                  counts, bounding box, edge statistics, problems\n"
     "  hocurve <command> --help                 options of a command\n"
     "exit codes: 0 done, 2 usage error, 3 input refused, 4 internal error, 5 out of memory\n";
@@ -35,7 +36,8 @@ int main(int argc, char** argv) {
     if (cmd == "curve") return cli::run_curve(argc, argv);
     if (cmd == "info") return cli::run_info(argc, argv);
     if (cmd == "coarsen") return cli::run_coarsen(argc, argv);
-    throw UsageError("unknown command '" + cmd + "' (commands: curve, coarsen, info)");
+    if (cmd == "volume") return cli::run_volume(argc, argv);
+    throw UsageError("unknown command '" + cmd + "' (commands: curve, coarsen, volume, info)");
   } catch (const UsageError& e) {
     std::cerr << "hocurve: usage error: " << e.what() << "\n";
     return 2;

@@ -1,0 +1,173 @@
+// Each free node climbs the soft minimum of its tets' det J coefficients (scaled by their
+// initial straight det J); a step is kept only when the true minimum rises.
+#include "engine/volume/optimize_tets.hpp"
+
+#include "engine/core/stopwatch.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace hocurve {
+
+namespace {
+
+// Node -> tets (CSR).
+struct NodeTets {
+  std::vector<int> start, tets;
+  NodeTets(const TetMesh& tm) : start(tm.X.rows() + 1, 0) {
+    for (Eigen::Index i = 0; i < tm.T.size(); ++i) ++start[tm.T.data()[i] + 1];
+    for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
+    tets.resize(tm.T.size());
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int t = 0; t < tm.num_tets(); ++t)
+      for (Eigen::Index k = 0; k < tm.T.cols(); ++k) tets[fill[tm.T(t, k)]++] = t;
+  }
+};
+
+struct Problem {
+  TetMesh& tm;
+  const TetJacobianBasis& b;
+  std::vector<double> J0;  // det J of each tet's initial straight tet
+
+  Eigen::VectorXd coefficients(int t) const { return b.to_bernstein * jacobian_samples(b, tm.tet_nodes(t)); }
+  double quality(int t) const { return coefficients(t).minCoeff() / J0[t]; }
+
+  // Smallest scaled coefficient over tets [first, last) and, with grad, the gradient with
+  // respect to node n of their soft minimum.
+  double evaluate(const int* first, const int* last, int n, Eigen::RowVector3d* grad) const {
+    double fmin = std::numeric_limits<double>::infinity();
+    std::vector<Eigen::VectorXd> q;
+    for (const int* t = first; t != last; ++t) {
+      q.push_back(coefficients(*t) / J0[*t]);
+      fmin = std::min(fmin, q.back().minCoeff());
+    }
+    if (!grad) return fmin;
+    const double beta = 20 / std::max(std::abs(fmin), 0.05);
+    grad->setZero();
+    for (std::size_t i = 0; i < q.size(); ++i) {
+      const int t = first[i];
+      const Eigen::VectorXd w = (-beta * (q[i].array() - fmin)).exp().matrix();
+      if (w.maxCoeff() < 1e-12) continue;
+      int k = 0;
+      while (tm.T(t, k) != n) ++k;
+      // d det J(s) / d x_n = gu (xv x xw) + gv (xw x xu) + gw (xu x xv) at every sample s.
+      const Eigen::MatrixXd X = tm.tet_nodes(t);
+      const Eigen::MatrixXd Xu = b.grad_u * X, Xv = b.grad_v * X, Xw = b.grad_w * X;
+      Eigen::MatrixXd G(Xu.rows(), 3);
+      for (Eigen::Index s = 0; s < G.rows(); ++s) {
+        const Eigen::RowVector3d u = Xu.row(s), v = Xv.row(s), x = Xw.row(s);
+        G.row(s) = b.grad_u(s, k) * v.cross(x) + b.grad_v(s, k) * x.cross(u) + b.grad_w(s, k) * u.cross(v);
+      }
+      *grad += (w.transpose() * b.to_bernstein) * G / J0[t];
+    }
+    return fmin;
+  }
+
+  // A few line-searched ascent steps on node n.
+  void improve(int n, const NodeTets& nt, const TetOptimizeOptions& opt) const {
+    const int *first = nt.tets.data() + nt.start[n], *last = nt.tets.data() + nt.start[n + 1];
+    double h = std::numeric_limits<double>::infinity();
+    for (const int* t = first; t != last; ++t) h = std::min(h, std::cbrt(J0[*t]));
+    for (int step = 0; step < opt.steps_per_node; ++step) {
+      Eigen::RowVector3d g;
+      const double f = evaluate(first, last, n, &g);
+      if (f >= opt.target || g.norm() == 0) return;
+      const Eigen::RowVector3d x0 = tm.X.row(n), d = g.normalized();
+      // Linearized step to the target, at most a third of the local size.
+      double a = std::min(h / 3, (opt.target - f) / g.norm());
+      bool moved = false;
+      for (int tries = 0; tries < 12 && !moved; ++tries, a /= 2) {
+        tm.X.row(n) = x0 + a * d;
+        moved = evaluate(first, last, n, nullptr) > f;
+      }
+      if (!moved) {
+        tm.X.row(n) = x0;
+        return;
+      }
+    }
+  }
+};
+
+// Greedy colouring of nodes so that no two of one colour share a tet.
+std::vector<std::vector<int>> colour(const std::vector<int>& nodes, const TetMesh& tm, const NodeTets& nt) {
+  std::vector<int> col(tm.X.rows(), -1);
+  std::vector<std::vector<int>> out;
+  std::vector<char> used;
+  for (int n : nodes) {
+    used.assign(out.size() + 1, 0);
+    for (int i = nt.start[n]; i < nt.start[n + 1]; ++i)
+      for (Eigen::Index k = 0; k < tm.T.cols(); ++k) {
+        const int c = col[tm.T(nt.tets[i], k)];
+        if (c >= 0) used[c] = 1;
+      }
+    const int c = static_cast<int>(std::find(used.begin(), used.end(), 0) - used.begin());
+    if (c == static_cast<int>(out.size())) out.emplace_back();
+    out[c].push_back(n);
+    col[n] = c;
+  }
+  return out;
+}
+
+}  // namespace
+
+TetOptimizeResult optimize_tets(TetMesh& tm, const TetJacobianBasis& basis, const TetOptimizeOptions& opt) {
+  const auto t0 = Clock::now();
+  TetOptimizeResult r;
+  Problem pb{tm, basis, std::vector<double>(tm.num_tets())};
+  std::vector<double> q(tm.num_tets());
+  tbb::parallel_for(0, tm.num_tets(), [&](int t) {
+    pb.J0[t] = straight_jacobian(tm.tet_nodes(t));
+    q[t] = pb.quality(t);
+  });
+  auto count = [&](long long& poor, long long& tangled) {
+    poor = tangled = 0;
+    for (double v : q) poor += v < opt.target, tangled += v <= 0;
+  };
+  count(r.poor_before, r.tangled_before);
+  r.poor_after = r.poor_before, r.tangled_after = r.tangled_before;
+  if (r.poor_before == 0) return r;
+
+  const NodeTets nt(tm);
+  double best = *std::min_element(q.begin(), q.end());
+  int stalled = 0;
+  for (r.sweeps = 0; r.sweeps < opt.max_sweeps && r.poor_after > 0 && stalled < 3; ++r.sweeps) {
+    // Free nodes: those of poor tets, grown by rings through shared nodes.
+    std::vector<char> region(tm.num_tets(), 0), is_free(tm.X.rows(), 0);
+    for (int t = 0; t < tm.num_tets(); ++t) region[t] = q[t] < opt.target;
+    for (int ring = 0; ring < opt.rings; ++ring) {
+      std::vector<char> grown = region;
+      for (int t = 0; t < tm.num_tets(); ++t)
+        if (region[t])
+          for (Eigen::Index k = 0; k < tm.T.cols(); ++k)
+            for (int i = nt.start[tm.T(t, k)]; i < nt.start[tm.T(t, k) + 1]; ++i) grown[nt.tets[i]] = 1;
+      region.swap(grown);
+    }
+    std::vector<int> nodes;
+    for (int t = 0; t < tm.num_tets(); ++t)
+      if (region[t])
+        for (Eigen::Index k = 0; k < tm.T.cols(); ++k) {
+          const int n = tm.T(t, k);
+          if (!tm.fixed[n] && !is_free[n]) is_free[n] = 1, nodes.push_back(n);
+        }
+    r.free_nodes = static_cast<long long>(nodes.size());
+    for (const std::vector<int>& c : colour(nodes, tm, nt))
+      tbb::parallel_for(std::size_t(0), c.size(), [&](std::size_t i) { pb.improve(c[i], nt, opt); });
+    std::vector<char> touched(tm.num_tets(), 0);  // every tet of a free node may have changed
+    for (int n : nodes)
+      for (int i = nt.start[n]; i < nt.start[n + 1]; ++i) touched[nt.tets[i]] = 1;
+    tbb::parallel_for(0, tm.num_tets(), [&](int t) {
+      if (touched[t]) q[t] = pb.quality(t);
+    });
+    count(r.poor_after, r.tangled_after);
+    const double now = *std::min_element(q.begin(), q.end());
+    stalled = now > best + 1e-6 ? 0 : stalled + 1;
+    best = std::max(best, now);
+  }
+  r.seconds = seconds_since(t0);
+  return r;
+}
+
+}  // namespace hocurve
