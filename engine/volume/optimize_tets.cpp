@@ -35,59 +35,61 @@ struct Problem {
   Eigen::VectorXd coefficients(int t) const { return b.to_bernstein * jacobian_samples(b, tm.tet_nodes(t)); }
   double quality(int t) const { return coefficients(t).minCoeff() / J0[t]; }
 
-  // Smallest scaled coefficient over tets [first, last) and, with grad, the gradient with
-  // respect to node n of their soft minimum.
-  double evaluate(const int* first, const int* last, int n, Eigen::RowVector3d* grad) const {
-    double fmin = std::numeric_limits<double>::infinity();
-    std::vector<Eigen::VectorXd> q;
-    for (const int* t = first; t != last; ++t) {
-      q.push_back(coefficients(*t) / J0[*t]);
-      fmin = std::min(fmin, q.back().minCoeff());
-    }
-    if (!grad) return fmin;
-    const double beta = 20 / std::max(std::abs(fmin), 0.05);
-    grad->setZero();
-    for (std::size_t i = 0; i < q.size(); ++i) {
-      const int t = first[i];
-      const Eigen::VectorXd w = (-beta * (q[i].array() - fmin)).exp().matrix();
-      if (w.maxCoeff() < 1e-12) continue;
+  // det J is affine in the position of any one node (moving it adds the same vector to the
+  // three columns, and a determinant with a repeated column vanishes), so each coefficient of
+  // each tet of node n is exactly c + G x, x its displacement: one evaluation per node serves a
+  // whole line search. Rows: every coefficient of every tet of n, scaled by its J0.
+  void linearize(const int* first, const int* last, int n, Eigen::VectorXd& c, Eigen::MatrixXd& G) const {
+    const Eigen::Index S = b.to_bernstein.rows();
+    c.resize(S * (last - first));
+    G.resize(c.size(), 3);
+    Eigen::Index row = 0;
+    for (const int* t = first; t != last; ++t, row += S) {
       int k = 0;
-      while (tm.T(t, k) != n) ++k;
-      // d det J(s) / d x_n = gu (xv x xw) + gv (xw x xu) + gw (xu x xv) at every sample s.
-      const Eigen::MatrixXd X = tm.tet_nodes(t);
+      while (tm.T(*t, k) != n) ++k;
+      const Eigen::MatrixXd X = tm.tet_nodes(*t);
       const Eigen::MatrixXd Xu = b.grad_u * X, Xv = b.grad_v * X, Xw = b.grad_w * X;
-      Eigen::MatrixXd G(Xu.rows(), 3);
-      for (Eigen::Index s = 0; s < G.rows(); ++s) {
-        const Eigen::RowVector3d u = Xu.row(s), v = Xv.row(s), x = Xw.row(s);
-        G.row(s) = b.grad_u(s, k) * v.cross(x) + b.grad_v(s, k) * x.cross(u) + b.grad_w(s, k) * u.cross(v);
+      Eigen::VectorXd J(S);
+      Eigen::MatrixXd dJ(S, 3);
+      for (Eigen::Index s = 0; s < S; ++s) {
+        const Eigen::RowVector3d u = Xu.row(s), v = Xv.row(s), w = Xw.row(s);
+        J[s] = u.dot(v.cross(w));
+        dJ.row(s) = b.grad_u(s, k) * v.cross(w) + b.grad_v(s, k) * w.cross(u) + b.grad_w(s, k) * u.cross(v);
       }
-      *grad += (w.transpose() * b.to_bernstein) * G / J0[t];
+      c.segment(row, S) = b.to_bernstein * J / J0[*t];
+      G.middleRows(row, S) = b.to_bernstein * dJ / J0[*t];
     }
-    return fmin;
   }
 
-  // A few line-searched ascent steps on node n.
+  // Ascent of the smallest of c + G x from x = 0 along soft-minimum gradients, with exact
+  // line searches; moves node n by the best x found.
   void improve(int n, const NodeTets& nt, const TetOptimizeOptions& opt) const {
     const int *first = nt.tets.data() + nt.start[n], *last = nt.tets.data() + nt.start[n + 1];
     double h = std::numeric_limits<double>::infinity();
     for (const int* t = first; t != last; ++t) h = std::min(h, std::cbrt(J0[*t]));
-    for (int step = 0; step < opt.steps_per_node; ++step) {
-      Eigen::RowVector3d g;
-      const double f = evaluate(first, last, n, &g);
-      if (f >= opt.target || g.norm() == 0) return;
-      const Eigen::RowVector3d x0 = tm.X.row(n), d = g.normalized();
-      // Linearized step to the target, at most a third of the local size.
-      double a = std::min(h / 3, (opt.target - f) / g.norm());
-      bool moved = false;
-      for (int tries = 0; tries < 12 && !moved; ++tries, a /= 2) {
-        tm.X.row(n) = x0 + a * d;
-        moved = evaluate(first, last, n, nullptr) > f;
+    Eigen::VectorXd c;
+    Eigen::MatrixXd G;
+    linearize(first, last, n, c, G);
+    Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
+    double f = c.minCoeff();
+    for (int step = 0; step < 4 * opt.steps_per_node && f < opt.target; ++step) {
+      const Eigen::VectorXd q = c + G * x.transpose();
+      const double beta = 20 / std::max(std::abs(f), 0.05);
+      const Eigen::VectorXd w = (-beta * (q.array() - f)).exp().matrix();
+      const Eigen::RowVector3d g = w.transpose() * G;
+      if (g.norm() == 0) break;
+      const Eigen::RowVector3d d = g.normalized();
+      const Eigen::VectorXd slope = G * d.transpose();
+      double best = f, best_a = 0;
+      for (double a = h / 3; a > h * 1e-4; a /= 2) {
+        const double fa = (q + a * slope).minCoeff();
+        if (fa > best) best = fa, best_a = a;
       }
-      if (!moved) {
-        tm.X.row(n) = x0;
-        return;
-      }
+      if (best_a == 0) break;
+      x += best_a * d;
+      f = best;
     }
+    tm.X.row(n) += x;
   }
 };
 

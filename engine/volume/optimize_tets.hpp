@@ -13,7 +13,7 @@ struct TetOptimizeOptions {
   /// is a nearly folded element for a solver, and moving it further costs nothing elsewhere.
   double target = 0.2;
   int max_sweeps = 40;     ///< Gauss-Seidel sweeps over the free nodes
-  int rings = 1;           ///< free nodes: those of poor tets and of tets this many node-rings around
+  int rings = 0;           ///< free nodes: those of poor tets and of tets this many node-rings around
   int steps_per_node = 3;  ///< line-searched ascent steps per node and sweep
 };
 
