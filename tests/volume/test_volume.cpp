@@ -12,6 +12,7 @@
 #include "engine/volume/volume_mesh.hpp"
 #include "engine/volume/write_tet_msh.hpp"
 
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -164,4 +165,19 @@ TEST_CASE("volume: an open surface is refused, naming the edge") {
     CHECK(std::string(e.what()).find("open") != std::string::npos);
     CHECK(std::string(e.what()).find("edge (") != std::string::npos);
   }
+}
+
+TEST_CASE("volume: the curved unit ball's volume converges at order >= P+1 as h halves (P2)") {
+  // The volume is the integral of det J; a Bernstein polynomial of degree d integrates to
+  // (tet volume) / #coefficients, so the mean coefficient / 6 is each tet's exact volume.
+  const TetJacobianBasis b(2);
+  std::vector<double> err;
+  for (const double h : {0.4, 0.2, 0.1}) {
+    const VolumeResult r = volume_mesh(occ_surface("sphere", h), options(2));
+    double v = 0;
+    for (int t = 0; t < r.mesh.num_tets(); ++t) v += (b.to_bernstein * jacobian_samples(b, r.mesh.tet_nodes(t))).mean() / 6;
+    err.push_back(std::abs(v - 4 * M_PI / 3));
+    MESSAGE("h " << h << ": " << r.mesh.num_tets() << " tets, volume error " << err.back());
+  }
+  for (std::size_t i = 1; i < err.size(); ++i) CHECK(std::log2(err[i - 1] / err[i]) >= 3);
 }
