@@ -27,7 +27,7 @@ SHAPES = {  # name -> (builder, h); big: a unit sphere of ~200k tets
     "sphere": ("sphere", 0.2),
     "torus": ("torus", 0.15),
     "shell": ("shell", 0.15),
-    "big": ("sphere", 0.055),
+    "big": ("sphere", 0.043),
 }
 
 

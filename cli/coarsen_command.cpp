@@ -165,17 +165,11 @@ nlohmann::json refinement_json(const RefineResult& r, const RefineOptions& o) {
 }  // namespace
 
 int run_coarsen(int argc, char** argv) {
-  Args a = parse_args(argc, argv, 2, kCoarsenOptions);
-  if (a.has("help")) {
-    std::cout << kCoarsenUsage << "\noptions:\n" << options_help(kCoarsenOptions);
-    return 0;
-  }
-  if (a.positional.size() != 1) throw UsageError("coarsen needs exactly one INPUT file (see --help)");
-  if (!a.has("output")) throw UsageError("coarsen needs -o OUTPUT.msh");
+  const std::optional<Args> parsed = parse_command("coarsen", argc, argv, kCoarsenOptions, kCoarsenUsage);
+  if (!parsed) return 0;
+  const Args& a = *parsed;
   if (a.has("faces") == a.has("ratio")) throw UsageError("coarsen needs exactly one of --faces N or --ratio R");
   const std::string input = a.positional[0], output = a.get("output");
-  check_output_path("-o", output);
-  if (a.has("stats")) check_output_path("--stats", a.get("stats"));
 
   DecimateOptions dopt;
   if (a.has("faces")) dopt.target_faces = static_cast<int>(a.get_int("faces", 0, 4, 100000000));

@@ -108,4 +108,18 @@ void write_json_file(const std::string& path, const nlohmann::json& j) {
   }
 }
 
+std::optional<Args> parse_command(const std::string& cmd, int argc, char** argv, const std::vector<OptionSpec>& specs,
+                                  const char* usage) {
+  Args a = parse_args(argc, argv, 2, specs);
+  if (a.has("help")) {
+    std::cout << usage << "\noptions:\n" << options_help(specs);
+    return std::nullopt;
+  }
+  if (a.positional.size() != 1) throw UsageError(cmd + " needs exactly one INPUT file (see --help)");
+  if (!a.has("output")) throw UsageError(cmd + " needs -o OUTPUT.msh");
+  check_output_path("-o", a.get("output"));
+  if (a.has("stats")) check_output_path("--stats", a.get("stats"));
+  return a;
+}
+
 }  // namespace hocurve::cli

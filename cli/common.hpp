@@ -6,6 +6,7 @@
 #include "cli/args.hpp"
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 namespace hocurve::cli {
@@ -39,6 +40,12 @@ nlohmann::json input_json(const std::string& path, const LoadedInput& in);
 /// Throws UsageError (exit 2) unless `path`'s folder exists and is writable: checked before any
 /// work, so that a mistyped -o or --stats does not cost a whole run and an "internal error".
 void check_output_path(const std::string& option, const std::string& path);
+
+/// Parses the command line of `hocurve CMD INPUT -o OUTPUT ...`: prints usage and the options
+/// and returns nothing for --help; otherwise throws UsageError unless there is exactly one INPUT
+/// and a -o, and checks the -o and --stats paths (check_output_path).
+std::optional<Args> parse_command(const std::string& cmd, int argc, char** argv, const std::vector<OptionSpec>& specs,
+                                  const char* usage);
 
 /// Writes JSON to a file atomically (temporary file, then rename).
 void write_json_file(const std::string& path, const nlohmann::json& j);

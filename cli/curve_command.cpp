@@ -36,16 +36,10 @@ const char* kCurveUsage =
 
 int run_curve(int argc, char** argv) {
   const std::vector<OptionSpec> specs = curve_specs();
-  Args a = parse_args(argc, argv, 2, specs);
-  if (a.has("help")) {
-    std::cout << kCurveUsage << "\noptions:\n" << options_help(specs);
-    return 0;
-  }
-  if (a.positional.size() != 1) throw UsageError("curve needs exactly one INPUT file (see --help)");
-  if (!a.has("output")) throw UsageError("curve needs -o OUTPUT.msh");
+  const std::optional<Args> parsed = parse_command("curve", argc, argv, specs, kCurveUsage);
+  if (!parsed) return 0;
+  const Args& a = *parsed;
   const std::string input = a.positional[0], output = a.get("output");
-  check_output_path("-o", output);
-  if (a.has("stats")) check_output_path("--stats", a.get("stats"));
 
   CurveOptions opt = parse_curve_options(a, 6);
   opt.method = a.get_choice("method", "solf", {"solf", "linear"}) == "linear" ? CurveOptions::Method::Linear

@@ -47,17 +47,11 @@ nlohmann::json quality_json(const TetMeshQuality& q) {
 
 int run_volume(int argc, char** argv) {
   const std::vector<OptionSpec> specs = volume_specs();
-  Args a = parse_args(argc, argv, 2, specs);
-  if (a.has("help")) {
-    std::cout << kVolumeUsage << "\noptions:\n" << options_help(specs);
-    return 0;
-  }
-  if (a.positional.size() != 1) throw UsageError("volume needs exactly one INPUT file (see --help)");
-  if (!a.has("output")) throw UsageError("volume needs -o OUTPUT.msh");
+  const std::optional<Args> parsed = parse_command("volume", argc, argv, specs, kVolumeUsage);
+  if (!parsed) return 0;
+  const Args& a = *parsed;
   if (a.has("size") && a.has("size-factor")) throw UsageError("volume takes --size or --size-factor, not both");
   const std::string input = a.positional[0], output = a.get("output");
-  check_output_path("-o", output);
-  if (a.has("stats")) check_output_path("--stats", a.get("stats"));
 
   VolumeOptions opt;
   opt.curve = parse_curve_options(a, 4);
