@@ -131,8 +131,7 @@ LinearTets generate_linear_tets(const Mesh& surface, const Shells& shells, const
     gmsh::model::mesh::generate(3);
     out = read_tets(surface.num_vertices());
   } catch (const std::string& e) {  // Gmsh 4.8 throws its message as a string
-    throw InputError("surface", "Gmsh could not fill it with tets (" + e +
-                                    "); is the surface self-intersecting?");
+    throw InputError("surface", "Gmsh could not fill it with tets (" + e + ")");
   }
   check_boundary(surface, out);
   out.seconds = seconds_since(t0);

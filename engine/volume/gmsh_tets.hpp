@@ -27,7 +27,7 @@ struct LinearTets {
 };
 
 /// Tetrahedralizes every volume of shells (see Shells) with Gmsh. Throws InputError when Gmsh
-/// refuses the surface (e.g. self-intersecting: Gmsh's message says where) or changed its
+/// refuses the surface (its message, e.g. a crossing it found) or changed its
 /// triangles (boundary recovery inserted Steiner points).
 LinearTets generate_linear_tets(const Mesh& surface, const Shells& shells, const LinearTetOptions& opt = {});
 

@@ -4,6 +4,7 @@
 #include "engine/core/error.hpp"
 #include "engine/core/stopwatch.hpp"
 #include "engine/volume/elevate.hpp"
+#include "engine/volume/self_intersection.hpp"
 #include "engine/volume/shells.hpp"
 #include "engine/volume/smooth_interior.hpp"
 #include "engine/volume/split_caps.hpp"
@@ -46,6 +47,13 @@ VolumeResult volume_mesh(const Mesh& surface, const VolumeOptions& opt) {
   const auto t0 = Clock::now();
   VolumeResult r;
   const Shells shells = find_shells(surface);
+  // Gmsh may refuse a crossing without saying where, or mesh around it: check first.
+  if (const auto fg = find_self_intersection(surface)) {
+    const Eigen::RowVector3d c = surface.V.row(surface.F(fg->first, 0));
+    throw InputError("surface faces " + std::to_string(fg->first) + " and " + std::to_string(fg->second) + " near (" +
+                         std::to_string(c[0]) + ", " + std::to_string(c[1]) + ", " + std::to_string(c[2]) + ")",
+                     "self-intersecting: the faces cross");
+  }
   r.shells = shells.count;
   r.shells_seconds = seconds_since(t0);
 

@@ -181,3 +181,21 @@ TEST_CASE("volume: the curved unit ball's volume converges at order >= P+1 as h 
   }
   for (std::size_t i = 1; i < err.size(); ++i) CHECK(std::log2(err[i - 1] / err[i]) >= 3);
 }
+
+TEST_CASE("volume: a self-intersecting surface is refused, naming two crossing faces") {
+  Mesh a = occ_surface("sphere", 0.5), b = a;
+  b.V.col(0).array() += 0.8;  // a second sphere through the first
+  Mesh m;
+  m.V.resize(a.V.rows() * 2, 3);
+  m.V << a.V, b.V;
+  m.F.resize(a.F.rows() * 2, 3);
+  m.F << a.F, b.F.array() + static_cast<int>(a.V.rows());
+  try {
+    volume_mesh(m, options(2));
+    FAIL("a self-intersecting surface was accepted");
+  } catch (const InputError& e) {
+    MESSAGE(std::string(e.what()));
+    CHECK(std::string(e.what()).find("self-intersecting") != std::string::npos);
+    CHECK(std::string(e.what()).find("faces ") != std::string::npos);
+  }
+}
