@@ -1,5 +1,5 @@
 // Each free node climbs the soft minimum of its tets' det J coefficients (scaled by their
-// initial straight det J); a step is kept only when the true minimum rises.
+// straight det J at the start); a step is kept only when the true minimum rises.
 #include "engine/volume/optimize_tets.hpp"
 
 #include "engine/core/stopwatch.hpp"
@@ -72,7 +72,7 @@ struct Problem {
     linearize(first, last, n, c, G);
     Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
     double f = c.minCoeff();
-    for (int step = 0; step < 4 * opt.steps_per_node && f < opt.target; ++step) {
+    for (int step = 0; step < opt.steps_per_node && f < opt.target; ++step) {
       const Eigen::VectorXd q = c + G * x.transpose();
       const double beta = 20 / std::max(std::abs(f), 0.05);
       const Eigen::VectorXd w = (-beta * (q.array() - f)).exp().matrix();
@@ -113,6 +113,29 @@ std::vector<std::vector<int>> colour(const std::vector<int>& nodes, const TetMes
   return out;
 }
 
+// Free nodes of the poor tets (q below target) and of the tets opt.rings node-rings around.
+std::vector<int> free_nodes(const TetMesh& tm, const NodeTets& nt, const std::vector<double>& q,
+                            const TetOptimizeOptions& opt) {
+  std::vector<char> region(tm.num_tets(), 0), is_free(tm.X.rows(), 0);
+  for (int t = 0; t < tm.num_tets(); ++t) region[t] = q[t] < opt.target;
+  for (int ring = 0; ring < opt.rings; ++ring) {
+    std::vector<char> grown = region;
+    for (int t = 0; t < tm.num_tets(); ++t)
+      if (region[t])
+        for (Eigen::Index k = 0; k < tm.T.cols(); ++k)
+          for (int i = nt.start[tm.T(t, k)]; i < nt.start[tm.T(t, k) + 1]; ++i) grown[nt.tets[i]] = 1;
+    region.swap(grown);
+  }
+  std::vector<int> nodes;
+  for (int t = 0; t < tm.num_tets(); ++t)
+    if (region[t])
+      for (Eigen::Index k = 0; k < tm.T.cols(); ++k) {
+        const int n = tm.T(t, k);
+        if (!tm.fixed[n] && !is_free[n]) is_free[n] = 1, nodes.push_back(n);
+      }
+  return nodes;
+}
+
 }  // namespace
 
 TetOptimizeResult optimize_tets(TetMesh& tm, const TetJacobianBasis& basis, const TetOptimizeOptions& opt) {
@@ -130,30 +153,16 @@ TetOptimizeResult optimize_tets(TetMesh& tm, const TetJacobianBasis& basis, cons
   };
   count(r.poor_before, r.tangled_before);
   r.poor_after = r.poor_before, r.tangled_after = r.tangled_before;
-  if (r.poor_before == 0) return r;
+  if (r.poor_before == 0) {
+    r.seconds = seconds_since(t0);
+    return r;
+  }
 
   const NodeTets nt(tm);
   double best = *std::min_element(q.begin(), q.end());
   int stalled = 0;
   for (r.sweeps = 0; r.sweeps < opt.max_sweeps && r.poor_after > 0 && stalled < 3; ++r.sweeps) {
-    // Free nodes: those of poor tets, grown by rings through shared nodes.
-    std::vector<char> region(tm.num_tets(), 0), is_free(tm.X.rows(), 0);
-    for (int t = 0; t < tm.num_tets(); ++t) region[t] = q[t] < opt.target;
-    for (int ring = 0; ring < opt.rings; ++ring) {
-      std::vector<char> grown = region;
-      for (int t = 0; t < tm.num_tets(); ++t)
-        if (region[t])
-          for (Eigen::Index k = 0; k < tm.T.cols(); ++k)
-            for (int i = nt.start[tm.T(t, k)]; i < nt.start[tm.T(t, k) + 1]; ++i) grown[nt.tets[i]] = 1;
-      region.swap(grown);
-    }
-    std::vector<int> nodes;
-    for (int t = 0; t < tm.num_tets(); ++t)
-      if (region[t])
-        for (Eigen::Index k = 0; k < tm.T.cols(); ++k) {
-          const int n = tm.T(t, k);
-          if (!tm.fixed[n] && !is_free[n]) is_free[n] = 1, nodes.push_back(n);
-        }
+    const std::vector<int> nodes = free_nodes(tm, nt, q, opt);
     r.free_nodes = static_cast<long long>(nodes.size());
     for (const std::vector<int>& c : colour(nodes, tm, nt))
       tbb::parallel_for(std::size_t(0), c.size(), [&](std::size_t i) { pb.improve(c[i], nt, opt); });

@@ -7,7 +7,6 @@
 #include <charconv>
 #include <cstring>
 #include <map>
-#include <set>
 #include <initializer_list>
 
 namespace hocurve {
