@@ -70,7 +70,7 @@ TetMesh elevate_tets(const LinearTets& lin, const HighOrderMesh& hm) {
         g = static_cast<int>(nodes.size());
         nodes.push_back(node_position(hm, idx[k]).transpose());
         const int w[3] = {p - tl(k, 0) - tl(k, 1), tl(k, 0), tl(k, 1)};
-        named.emplace(make_key(c, w, 3), g);
+        named.try_emplace(make_key(c, w, 3), g);
       }
       tm.B(f, k) = g;
     }
@@ -98,7 +98,7 @@ TetMesh elevate_tets(const LinearTets& lin, const HighOrderMesh& hm) {
           int cc[3], ww[3], m = 0;
           for (int i = 0; i < 4; ++i)
             if (w[i]) cc[m] = c[i], ww[m++] = w[i];
-          auto [it, added] = named.emplace(make_key(cc, ww, m), static_cast<int>(nodes.size()));
+          auto [it, added] = named.try_emplace(make_key(cc, ww, m), static_cast<int>(nodes.size()));
           if (added) nodes.push_back(x);
           g = it->second;
         }

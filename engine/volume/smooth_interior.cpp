@@ -37,40 +37,50 @@ void smooth_interior(TetMesh& tm, const SmoothOptions& opt) {
     for (int t = 0; t < tm.num_tets(); ++t)
       for (int k = 0; k < n && !in[t]; ++k) in[t] = node_in[tm.T(t, k)];
   }
-  // Lattice neighbour pairs of one tet: barycentric indices differing by e_i - e_j.
-  std::vector<std::pair<int, int>> pairs;
+  // Lattice neighbours of each local node: barycentric indices differing by e_i - e_j.
+  std::vector<std::vector<int>> nbr(n);
   for (int k = 0; k < n; ++k)
     for (int l = 0; l < n; ++l) {
       const Eigen::Vector3i d = L.row(k) - L.row(l);
       const int a = d.cwiseAbs().sum(), s = d.sum();
-      if ((a == 1) || (a == 2 && s == 0)) pairs.emplace_back(k, l);
+      if (a == 1 || (a == 2 && s == 0)) nbr[k].push_back(l);
     }
-  // Nodes moving at the boundary of the region keep d = 0: only nodes all of whose tets are
-  // in the region move.
+  // Only nodes all of whose tets are in the region move; the others keep d (0 inside).
   std::vector<char> moves(N, 0);
   for (int i = 0; i < N; ++i) moves[i] = node_in[i] && !tm.fixed[i];
   for (int t = 0; t < tm.num_tets(); ++t)
     if (!in[t])
       for (int k = 0; k < n; ++k) moves[tm.T(t, k)] = 0;
-  std::vector<int> region;
+  std::vector<int> moving;
+  for (int i = 0; i < N; ++i)
+    if (moves[i]) moving.push_back(i);
+  // Node -> tets (CSR) of the moving nodes, for a race-free parallel gather.
+  std::vector<int> start(N + 1, 0), tets;
   for (int t = 0; t < tm.num_tets(); ++t)
-    if (in[t]) region.push_back(t);
+    for (int k = 0; k < n; ++k) start[tm.T(t, k) + 1] += moves[tm.T(t, k)];
+  for (int i = 0; i < N; ++i) start[i + 1] += start[i];
+  tets.resize(start[N]);
+  std::vector<int> fill(start.begin(), start.end() - 1);
+  for (int t = 0; t < tm.num_tets(); ++t)
+    for (int k = 0; k < n; ++k)
+      if (moves[tm.T(t, k)]) tets[fill[tm.T(t, k)]++] = t;
 
-  Eigen::MatrixXd sum(N, 3);
-  std::vector<int> count(N);
+  Eigen::MatrixXd next = D;
   for (int it = 0; it < opt.iterations; ++it) {
-    sum.setZero();
-    std::fill(count.begin(), count.end(), 0);
-    for (int t : region)
-      for (const auto& [k, l] : pairs) {
-        const int a = tm.T(t, k);
-        if (!moves[a]) continue;
-        sum.row(a) += D.row(tm.T(t, l));
-        ++count[a];
+    tbb::parallel_for(std::size_t(0), moving.size(), [&](std::size_t j) {
+      const int i = moving[j];
+      Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+      int count = 0;
+      for (int q = start[i]; q < start[i + 1]; ++q) {
+        const int t = tets[q];
+        int k = 0;
+        while (tm.T(t, k) != i) ++k;
+        for (int l : nbr[k]) sum += D.row(tm.T(t, l));
+        count += static_cast<int>(nbr[k].size());
       }
-    tbb::parallel_for(0, N, [&](int i) {
-      if (count[i]) D.row(i) = sum.row(i) / count[i];
+      if (count) next.row(i) = sum / count;
     });
+    D.swap(next);  // rows that do not move are equal in both
   }
   for (int i = 0; i < N; ++i)
     if (moves[i]) tm.X.row(i) = S.row(i) + D.row(i);
