@@ -46,7 +46,7 @@ TEST_CASE("tet Jacobian bound: straight tets, a bulge that folds and one that do
   }
 }
 
-TEST_CASE("tet Jacobian bound: certified tets are valid at dense samples; subdivision decides more") {
+TEST_CASE("tet Jacobian bound: certified tets are valid at dense samples, subdivision decides more") {
   // Random perturbations of every node: whatever the verdict, a certified tet has det J > 0 at
   // 2000 random points, subdividing only tightens the bound, and some tets need it.
   std::srand(7);
