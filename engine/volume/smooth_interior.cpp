@@ -7,9 +7,9 @@
 
 namespace hocurve {
 
-void smooth_interior(TetMesh& tm, const SmoothOptions& opt) {
+void smooth_interior(TetMesh& tm, const std::vector<int>& seeds, const SmoothOptions& opt) {
   const int p = tm.order, n = static_cast<int>(tm.T.cols()), N = static_cast<int>(tm.X.rows());
-  if (p < 2 || tm.num_tets() == 0) return;
+  if (p < 2 || seeds.empty()) return;
   // Straight positions: the lattice weights on the tet's corners (the same from every tet).
   const Eigen::MatrixXi L = tet_lattice(p);
   Eigen::MatrixXd S(N, 3);
@@ -24,10 +24,9 @@ void smooth_interior(TetMesh& tm, const SmoothOptions& opt) {
   Eigen::MatrixXd D = tm.X - S;
   for (int i = 0; i < N; ++i)
     if (!tm.fixed[i]) D.row(i).setZero();
-  // Region: tets touching the boundary by more than a vertex, grown by rings through nodes.
+  // Region: the seeds grown by rings through nodes.
   std::vector<char> in(tm.num_tets(), 0), node_in(N, 0);
-  for (int t = 0; t < tm.num_tets(); ++t)
-    for (int k = 4; k < n && !in[t]; ++k) in[t] = tm.fixed[tm.T(t, k)];
+  for (int t : seeds) in[t] = 1;
   for (int ring = 0; ring <= opt.rings; ++ring) {
     std::fill(node_in.begin(), node_in.end(), 0);
     for (int t = 0; t < tm.num_tets(); ++t)

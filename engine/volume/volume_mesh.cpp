@@ -27,6 +27,8 @@ TetMeshQuality check_tet_mesh(const TetMesh& tm, const TetJacobianBasis& basis, 
     if (!q[t].valid) r.invalid_tets.push_back(static_cast<int>(t));
   }
   r.invalid = static_cast<long long>(r.invalid_tets.size());
+  r.scaled_jacobian.resize(q.size());
+  for (std::size_t t = 0; t < q.size(); ++t) r.scaled_jacobian[t] = q[t].scaled_jacobian;
   auto min_and_p1 = [&](double TetQuality::*field, double& min, double& p1) {
     std::vector<double> s(q.size());
     for (std::size_t t = 0; t < q.size(); ++t) s[t] = q[t].*field;
@@ -72,11 +74,15 @@ VolumeResult volume_mesh(const Mesh& surface, const VolumeOptions& opt) {
 
   const TetJacobianBasis basis(p);
   t = Clock::now();
-  r.invalid_before = check_tet_mesh(r.mesh, basis, opt.check).invalid;
+  const TetMeshQuality before = check_tet_mesh(r.mesh, basis, opt.check);
+  r.invalid_before = before.invalid;
   r.check_before_seconds = seconds_since(t);
   if (opt.optimize_enabled) {
     t = Clock::now();
-    smooth_interior(r.mesh, opt.smooth);
+    std::vector<int> seeds;
+    for (int k = 0; k < r.mesh.num_tets(); ++k)
+      if (before.scaled_jacobian[k] < opt.smooth_below) seeds.push_back(k);
+    smooth_interior(r.mesh, seeds, opt.smooth);
     r.smooth_seconds = seconds_since(t);
     r.optimize = optimize_tets(r.mesh, basis, opt.optimize);
   }
