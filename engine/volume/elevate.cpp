@@ -27,7 +27,8 @@ Key make_key(const int* c, const int* w, int n) {
   int m = 0;
   for (int i = 0; i < n; ++i)
     if (w[i]) cw[m++] = {c[i], w[i]};
-  std::sort(cw, cw + m);
+  for (int i = 1; i < m; ++i)  // insertion sort (m <= 3; std::sort here trips -Warray-bounds)
+    for (int j = i; j > 0 && cw[j] < cw[j - 1]; --j) std::swap(cw[j], cw[j - 1]);
   std::uint64_t x[3] = {0, 0, 0};
   for (int i = 0; i < m; ++i) x[i] = (static_cast<std::uint64_t>(cw[i].first) << 4 | cw[i].second) + 1;
   return Key{x[0] << 32 | x[1], x[2]};

@@ -14,19 +14,6 @@ namespace hocurve {
 
 namespace {
 
-// Node -> tets (CSR).
-struct NodeTets {
-  std::vector<int> start, tets;
-  NodeTets(const TetMesh& tm) : start(tm.X.rows() + 1, 0) {
-    for (Eigen::Index i = 0; i < tm.T.size(); ++i) ++start[tm.T.data()[i] + 1];
-    for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
-    tets.resize(tm.T.size());
-    std::vector<int> fill(start.begin(), start.end() - 1);
-    for (int t = 0; t < tm.num_tets(); ++t)
-      for (Eigen::Index k = 0; k < tm.T.cols(); ++k) tets[fill[tm.T(t, k)]++] = t;
-  }
-};
-
 struct Problem {
   TetMesh& tm;
   const TetJacobianBasis& b;

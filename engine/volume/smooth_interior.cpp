@@ -53,25 +53,15 @@ void smooth_interior(TetMesh& tm, const std::vector<int>& seeds, const SmoothOpt
   std::vector<int> moving;
   for (int i = 0; i < N; ++i)
     if (moves[i]) moving.push_back(i);
-  // Node -> tets (CSR) of the moving nodes, for a race-free parallel gather.
-  std::vector<int> start(N + 1, 0), tets;
-  for (int t = 0; t < tm.num_tets(); ++t)
-    for (int k = 0; k < n; ++k) start[tm.T(t, k) + 1] += moves[tm.T(t, k)];
-  for (int i = 0; i < N; ++i) start[i + 1] += start[i];
-  tets.resize(start[N]);
-  std::vector<int> fill(start.begin(), start.end() - 1);
-  for (int t = 0; t < tm.num_tets(); ++t)
-    for (int k = 0; k < n; ++k)
-      if (moves[tm.T(t, k)]) tets[fill[tm.T(t, k)]++] = t;
-
+  const NodeTets nt(tm);  // a race-free parallel gather
   Eigen::MatrixXd next = D;
   for (int it = 0; it < opt.iterations; ++it) {
     tbb::parallel_for(std::size_t(0), moving.size(), [&](std::size_t j) {
       const int i = moving[j];
       Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
       int count = 0;
-      for (int q = start[i]; q < start[i + 1]; ++q) {
-        const int t = tets[q];
+      for (int q = nt.start[i]; q < nt.start[i + 1]; ++q) {
+        const int t = nt.tets[q];
         int k = 0;
         while (tm.T(t, k) != i) ++k;
         for (int l : nbr[k]) sum += D.row(tm.T(t, l));
