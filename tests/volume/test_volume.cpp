@@ -30,6 +30,8 @@ Mesh occ_surface(const std::string& shape, double h) {
       gmsh::model::occ::addSphere(0, 0, 0, 1);
     } else if (shape == "torus") {
       gmsh::model::occ::addTorus(0, 0, 0, 1, 0.35);
+    } else if (shape == "nested") {  // three concentric spheres: radii 1, 0.8, 0.5
+      for (const double r : {1.0, 0.8, 0.5}) gmsh::model::occ::addSphere(0, 0, 0, r);
     } else {  // thin shell: sphere of radius 1 minus radius 0.95
       const int a = gmsh::model::occ::addSphere(0, 0, 0, 1), b = gmsh::model::occ::addSphere(0, 0, 0, 0.95);
       gmsh::vectorpair out;
@@ -216,4 +218,20 @@ TEST_CASE("volume: a self-intersecting surface is refused, naming two crossing f
     CHECK(std::string(e.what()).find("self-intersecting") != std::string::npos);
     CHECK(std::string(e.what()).find("faces ") != std::string::npos);
   }
+}
+
+TEST_CASE("volume: nested shells: a shell in a shell is a hole, a shell in the hole a new volume") {
+  const VolumeResult r = volume_mesh(occ_surface("nested", 0.3), options(2));
+  CHECK(r.shells == 3);
+  CHECK(r.quality.invalid == 0);
+  int in_hole = 0, inner = 0, outer = 0;
+  for (int t = 0; t < r.mesh.num_tets(); ++t) {
+    const double c = r.mesh.tet_nodes(t).topRows(4).colwise().mean().norm();
+    in_hole += c > 0.5 && c < 0.8;
+    inner += c < 0.5;
+    outer += c > 0.8;
+  }
+  CHECK(in_hole == 0);
+  CHECK(inner > 0);
+  CHECK(outer > 0);
 }
