@@ -8,5 +8,6 @@ int run_curve(int argc, char** argv);    ///< hocurve curve INPUT -o OUTPUT.msh 
 int run_info(int argc, char** argv);     ///< hocurve info INPUT [--json]
 int run_coarsen(int argc, char** argv);  ///< hocurve coarsen INPUT -o OUTPUT.msh --order P (--faces N | --ratio R)
 int run_options(int argc, char** argv);  ///< hocurve options [--json]: the option registry
+int run_volume(int argc, char** argv);   ///< hocurve volume INPUT -o OUTPUT.msh --order P [--size H] ...
 
 }  // namespace hocurve::cli

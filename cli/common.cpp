@@ -3,7 +3,9 @@
 #include "engine/core/error.hpp"
 
 #include <chrono>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -100,6 +102,50 @@ void write_json_file(const std::string& path, const nlohmann::json& j) {
     std::remove(tmp.c_str());
     throw UsageError("cannot write " + path + ": cannot rename the temporary file into place");
   }
+}
+
+std::optional<Args> parse_command(const std::string& cmd, int argc, char** argv, const std::vector<OptionSpec>& specs,
+                                  const char* usage) {
+  Args a = parse_args(argc, argv, 2, specs);
+  if (a.has("help")) {
+    std::cout << usage << "\noptions:\n" << options_help(specs);
+    return std::nullopt;
+  }
+  if (a.positional.size() != 1) throw UsageError(cmd + " needs exactly one INPUT file (see --help)");
+  if (!a.has("output")) throw UsageError(cmd + " needs -o OUTPUT.msh");
+  check_output_path("-o", a.get("output"));
+  if (a.has("stats")) check_output_path("--stats", a.get("stats"));
+  return a;
+}
+
+int run_guarded(const std::function<int()>& command) {
+  try {
+    return command();
+  } catch (const UsageError& e) {
+    std::cerr << "hocurve: usage error: " << e.what() << "\n";
+    return 2;
+  } catch (const InputError& e) {
+    std::cerr << "hocurve: input refused: " << e.what() << "\n";
+    return 3;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "hocurve: out of memory: the mesh needs more memory than this process may use\n";
+    return 5;
+  } catch (const std::exception& e) {
+    std::cerr << "hocurve: internal error: " << e.what() << "\n";
+    return 4;
+  } catch (...) {
+    std::cerr << "hocurve: internal error: unknown exception\n";
+    return 4;
+  }
+}
+
+int exec_sibling(const char* name, char** argv) {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  const std::string path = (ec ? std::filesystem::path(argv[0]).parent_path() : self.parent_path()) / name;
+  argv[0] = const_cast<char*>(path.c_str());
+  execv(path.c_str(), argv);
+  throw std::runtime_error("cannot run " + path + " (" + std::strerror(errno) + "): it is built and installed beside hocurve");
 }
 
 }  // namespace hocurve::cli

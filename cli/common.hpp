@@ -2,9 +2,12 @@
 #pragma once
 #include "engine/core/mesh.hpp"
 #include "engine/io/read_mesh.hpp"
+#include "cli/args.hpp"
 #include "engine/io/validate_mesh.hpp"
 
 #include <nlohmann/json.hpp>
+#include <functional>
+#include <optional>
 #include <string>
 
 namespace hocurve::cli {
@@ -35,6 +38,21 @@ nlohmann::json input_json(const std::string& path, const LoadedInput& in);
 /// Throws UsageError (exit 2) unless `path`'s folder exists and is writable: checked before any
 /// work, so that a mistyped -o or --stats does not cost a whole run and an "internal error".
 void check_output_path(const std::string& option, const std::string& path);
+
+/// Parses the command line of `hocurve CMD INPUT -o OUTPUT ...`: prints usage and the options
+/// and returns nothing for --help; otherwise throws UsageError unless there is exactly one INPUT
+/// and a -o, and checks the -o and --stats paths (check_output_path).
+std::optional<Args> parse_command(const std::string& cmd, int argc, char** argv, const std::vector<OptionSpec>& specs,
+                                  const char* usage);
+
+/// Runs a command, turning its exceptions into the documented exit codes and one line on stderr:
+/// 2 usage error, 3 input refused, 4 internal error, 5 out of memory.
+int run_guarded(const std::function<int()>& command);
+
+/// Replaces this process by program `name` from this executable's folder, with the same arguments
+/// (argv[0] becomes its path); returns only on failure, by throwing. Why: `hocurve volume` links
+/// Gmsh's 90 shared libraries (0.07 s and 45 MB at every start), which curve and coarsen need not.
+int exec_sibling(const char* name, char** argv);
 
 /// Writes JSON to a file atomically (temporary file, then rename).
 void write_json_file(const std::string& path, const nlohmann::json& j);

@@ -1,6 +1,7 @@
 // hocurve: command-line front end of the engine. Exit codes: 0 done, 2 usage, 3 bad input,
 // 4 internal error, 5 out of memory; errors are one line on stderr.
 #include "cli/commands.hpp"
+#include "cli/common.hpp"
 
 #include "engine/core/error.hpp"
 
@@ -15,6 +16,7 @@ const char* kUsage =
     "  curve    INPUT -o OUTPUT.msh --order P   curve a linear surface mesh into order-P triangles\n"
     "  coarsen  INPUT -o OUTPUT.msh --order P (--faces N | --ratio R)\n"
     "                                           decimate and lift a coarse curved mesh onto the input\n"
+    "  volume   INPUT -o OUTPUT.msh --order P   fill a closed surface with order-P curved tets\n"
     "  info     INPUT [--json]                  counts, bounding box, edge statistics, problems\n"
     "  options  [--json]                        every option (name, type, range, default) as JSON\n"
     "  hocurve <command> --help                 options of a command\n"
@@ -32,26 +34,12 @@ int main(int argc, char** argv) {
     return 0;
   }
   const std::string cmd = argv[1];
-  try {
+  return cli::run_guarded([&] {
     if (cmd == "curve") return cli::run_curve(argc, argv);
     if (cmd == "info") return cli::run_info(argc, argv);
     if (cmd == "coarsen") return cli::run_coarsen(argc, argv);
     if (cmd == "options") return cli::run_options(argc, argv);
-    throw UsageError("unknown command '" + cmd + "' (commands: curve, coarsen, info, options)");
-  } catch (const UsageError& e) {
-    std::cerr << "hocurve: usage error: " << e.what() << "\n";
-    return 2;
-  } catch (const InputError& e) {
-    std::cerr << "hocurve: input refused: " << e.what() << "\n";
-    return 3;
-  } catch (const std::bad_alloc&) {
-    std::cerr << "hocurve: out of memory: the mesh needs more memory than this process may use\n";
-    return 5;
-  } catch (const std::exception& e) {
-    std::cerr << "hocurve: internal error: " << e.what() << "\n";
-    return 4;
-  } catch (...) {
-    std::cerr << "hocurve: internal error: unknown exception\n";
-    return 4;
-  }
+    if (cmd == "volume") return cli::exec_sibling("hocurve-volume", argv);
+    throw UsageError("unknown command '" + cmd + "' (commands: curve, coarsen, volume, info, options)");
+  });
 }

@@ -503,6 +503,10 @@ std::string write_msh_string(const HighOrderMesh& hm, const MshOptions& opt) {
 }
 
 void write_msh_file(const HighOrderMesh& hm, const std::string& path, const MshOptions& opt) {
+  write_file_atomically(path, [&](const ByteSink& sink) { write_all(hm, opt, sink); });
+}
+
+void write_file_atomically(const std::string& path, const std::function<void(const ByteSink&)>& produce) {
   // Temporary next to the target (same file system, so rename is atomic); O_EXCL with a
   // random suffix instead of mkstemp so the final file gets the usual 0666 & ~umask mode.
   std::random_device rd;
@@ -517,7 +521,7 @@ void write_msh_file(const HighOrderMesh& hm, const std::string& path, const MshO
   }
   if (fd < 0) throw std::runtime_error(path + ": cannot create a unique temporary file");
   try {
-    write_all(hm, opt, [&](const char* p, size_t n) {
+    produce([&](const char* p, size_t n) {
       while (n > 0) {
         const ssize_t w = ::write(fd, p, n);
         if (w < 0) {

@@ -23,6 +23,7 @@
 #pragma once
 #include "engine/highorder/high_order_mesh.hpp"
 
+#include <functional>
 #include <ostream>
 #include <string>
 
@@ -44,5 +45,13 @@ std::string write_msh_string(const HighOrderMesh& hm, const MshOptions& opt = {}
 /// Writes path atomically: a temporary file in the same directory, flushed, fsync'ed and
 /// renamed onto path. On any error the temporary is removed and path is left untouched.
 void write_msh_file(const HighOrderMesh& hm, const std::string& path, const MshOptions& opt = {});
+
+/// Where a writer hands its bytes, in order.
+using ByteSink = std::function<void(const char*, size_t)>;
+
+/// Writes path atomically from the bytes produce gives its sink: a temporary file in the same
+/// directory, flushed, fsync'ed and renamed onto path. On any error the temporary is removed
+/// and path is left untouched. (write_msh_file; also the tet writer's.)
+void write_file_atomically(const std::string& path, const std::function<void(const ByteSink&)>& produce);
 
 }  // namespace hocurve
