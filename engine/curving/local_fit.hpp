@@ -50,12 +50,6 @@ struct FitOptions {
   /// fitted exactly either way; screw P6 d/40 1.03e-2 -> 9.1e-3; shared meshes unchanged.
   double curve_points_per_coef = 1.0;
   int max_rings = 6;
-  /// A height fit whose weighted residual exceeds this x the median of all height fits' (the
-  /// input's noise floor) is dropped: the corner keeps the straight triangles (0: never;
-  /// drop_unconfirmed_fits). Measured: a CAD part at diag/80 (bench/cad_bench.py, io1-pe-203),
-  /// fits 0.1 h off their own points on a cone beside two hole rims, P4 3.3e-1 (linear 1.0e-1)
-  /// -> 7.5e-3; the analytic shapes, screw, T20 and every shared mesh drop none.
-  double unconfirmed_residual_factor = 1000;
   int max_points = 128;
   /// Refit in the frame of the first fit's normal. Measured 1.3-3x LESS accurate than the
   /// area-weighted normal with the same weights (table above), so off by default.

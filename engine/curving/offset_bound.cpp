@@ -38,21 +38,6 @@ double allowed(double L, double s, const OffsetBoundOptions& opt) {
 
 }  // namespace
 
-long long drop_unconfirmed_fits(double factor, std::vector<LocalFit>& fits) {
-  if (!(factor > 0)) return 0;
-  auto height = [](const LocalFit& f) { return !f.exact && !f.apex && !f.identity && f.degree > 0; };
-  std::vector<double> r;
-  for (const LocalFit& f : fits)
-    if (height(f)) r.push_back(f.residual);
-  if (r.size() < 8) return 0;  // too few to tell a noise floor
-  std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
-  const double bound = factor * std::max(r[r.size() / 2], 1e-12);
-  long long n = 0;
-  for (LocalFit& f : fits)
-    if (height(f) && f.residual > bound) f.identity = true, ++n;
-  return n;
-}
-
 std::vector<Eigen::Vector3d> wedge_normals(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits) {
   std::vector<Eigen::Vector3d> n(W.num_wedges(), Eigen::Vector3d::Zero());
   tbb::parallel_for(0, W.num_wedges(), [&](int w) {

@@ -39,13 +39,6 @@ struct OffsetBoundResult {
   std::vector<char> face;  ///< per face: 1 where its interior or one of its edges was scaled
 };
 
-/// Do no harm, before placement: height fits whose weighted residual exceeds `factor` x the median
-/// of all height fits' (the input's noise floor: a CAD export's rounding, a scan's noise)
-/// contradict their own data: their stencil spans what no smooth surface does (a tangent junction
-/// the features missed, another CAD face). They place nothing (identity: the corner keeps the
-/// straight triangles). Returns how many.
-long long drop_unconfirmed_fits(double factor, std::vector<LocalFit>& fits);
-
 /// Unit normal of each wedge's fitted surface at its vertex (#wedges; zero where undefined: a
 /// cone model's apex, or no fit).
 std::vector<Eigen::Vector3d> wedge_normals(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits);

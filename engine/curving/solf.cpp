@@ -10,7 +10,6 @@
 #include "engine/curving/stencil.hpp"
 #include "engine/curving/untangle.hpp"
 
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -163,7 +162,6 @@ CurveResult curve_mesh(const Mesh& mesh, const CurveOptions& opt) {
       const int d = fit_degree(p, fit_opt);
       R.fits = fit_wedges(mesh, T, W, d, R.support_used ? &support : nullptr, fit_opt);
       R.band_wedges = refit_band_wedges(mesh, T, W, R.features, d, fit_opt, R.fits.fits);
-      R.unconfirmed_fits = drop_unconfirmed_fits(fit_opt.unconfirmed_residual_factor, R.fits.fits);
       progress("curve fits", 0.6);
       R.curve_fits = fit_feature_curves(mesh, T, R.features, d, fit_opt);
     } else {

@@ -85,7 +85,6 @@ struct CurveResult {
   long long long_faces = 0;       ///< faces with such an edge: their interior nodes are on their PN triangle
   PlanarPatchResult planar;
   OffsetBoundResult offset_bound;
-  long long unconfirmed_fits = 0;  ///< height fits far above the noise floor, dropped (FitOptions::unconfirmed_residual_factor)
   std::vector<SurfaceModel> wedge_models;  ///< per wedge: its fit's model
   std::vector<SurfaceModel> face_models;   ///< per face: the model that placed its nodes last
   double placement_seconds = 0;

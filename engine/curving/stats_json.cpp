@@ -66,7 +66,6 @@ nlohmann::json stats_json(const CurveResult& r) {
                     {"bounded_edges", r.offset_bound.edges},
                     {"bounded_faces", r.offset_bound.faces},
                     {"bounded_min_scale", r.offset_bound.min_scale},
-                    {"unconfirmed_fits", r.unconfirmed_fits},
                     {"seconds", r.placement_seconds}};
   j["models"] = {{"wedges", model_counts(r.wedge_models)}, {"elements", model_counts(r.face_models)}};
   j["untangle"] = {{"targets", r.untangle.targets},

@@ -111,16 +111,3 @@ TEST_CASE("offset_bound: curve_mesh on smooth shapes bounds nothing") {
     CHECK(R.offset_bound.faces == 0);
   }
 }
-
-TEST_CASE("offset_bound: fits far above the noise floor are dropped, the rest kept") {
-  Fitted s(icosphere(2));
-  for (LocalFit& f : s.fits) f.residual = 1e-3, f.exact = false, f.surface.reset();  // as height fits
-  s.fits[3].residual = 2.0;  // 2000x the median
-  s.fits[5].residual = 0.5;  // 500x: kept at factor 1000
-  CHECK(drop_unconfirmed_fits(1000, s.fits) == 1);
-  CHECK(s.fits[3].identity);
-  CHECK(!s.fits[5].identity);
-  const Eigen::Vector3d x(0.3, 0.2, 0.9);
-  CHECK(s.fits[3].project(x) == x);  // it places nothing: the straight triangles
-  CHECK(drop_unconfirmed_fits(0, s.fits) == 0);
-}
