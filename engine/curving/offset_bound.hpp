@@ -39,15 +39,15 @@ struct OffsetBoundResult {
   std::vector<char> face;  ///< per face: 1 where its interior or one of its edges was scaled
 };
 
-/// Unit normal of each wedge's fitted surface at its vertex (#wedges; zero where undefined: a
-/// cone model's apex, or no fit).
+/// Unit normal of each wedge's fitted surface at its vertex (#wedges; zero where not bounded: a
+/// cone model's apex, an exact surface).
 std::vector<Eigen::Vector3d> wedge_normals(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits);
 
 
 /// Scales the offsets (from the straight positions) of hm's edge and face nodes down to the bound
 /// above, per edge and per face (a face's interior by at most its edges' scale too), so the mesh
-/// stays conforming. face_fits (may be null): per face, an exact surface that placed its nodes;
-/// its gradient gives the corners' normals there. Deterministic and thread-count independent.
+/// stays conforming. What exact surfaces placed is left alone: faces on one (face_fits, may be
+/// null), their edges, and corners whose fit is one. Deterministic and thread-count independent.
 OffsetBoundResult bound_offsets(const Mesh& mesh, const Topology& T, const Wedges& W,
                                 const std::vector<LocalFit>& fits, const std::vector<const LocalFit*>* face_fits,
                                 HighOrderMesh& hm, const OffsetBoundOptions& opt = {});

@@ -23,7 +23,9 @@ struct Fitted {
   explicit Fitted(Mesh m) : mesh(std::move(m)) {
     T = build_topology(mesh.F, mesh.num_vertices());
     W = build_wedges(mesh, T, std::vector<char>(T.num_edges(), 0));
-    fits = fit_wedges(mesh, T, W, 4, nullptr).fits;
+    FitOptions height_only;  // exact surfaces are left alone by the bound: height fits here
+    height_only.exact_quadrics = false;
+    fits = fit_wedges(mesh, T, W, 4, nullptr, height_only).fits;
     hm = make_straight_high_order(mesh, T, 4);
   }
   /// Moves every edge and face node onto the unit sphere (the exact surface).
@@ -110,4 +112,13 @@ TEST_CASE("offset_bound: curve_mesh on smooth shapes bounds nothing") {
     CHECK(R.offset_bound.edges == 0);
     CHECK(R.offset_bound.faces == 0);
   }
+}
+
+TEST_CASE("offset_bound: what exact surfaces placed is left alone") {
+  Fitted s(icosphere(2));
+  s.fits = fit_wedges(s.mesh, s.T, s.W, 4, nullptr).fits;  // exact spheres
+  s.onto_sphere();
+  const int e = interior_edge(s.T);
+  s.bulge(e, 0.3, (s.mesh.V.row(s.T.E(e, 0)) + s.mesh.V.row(s.T.E(e, 1))).normalized());
+  CHECK(bound_offsets(s.mesh, s.T, s.W, s.fits, nullptr, s.hm).edges == 0);
 }
