@@ -64,9 +64,9 @@ struct LiftOptions {
   bool resnap_invalid = true;
   /// An invalid snapped element that one node group (its face nodes, or one edge's nodes) alone
   /// makes valid moves only that group back toward the coarse-fit blend (else all its nodes).
-  /// Measured (bench_lift, P4 Hausdorff / diagonal at 4%, off -> on, session 7): armadillo 0.720 ->
+  /// Measured (bench_lift, P4 Hausdorff / diagonal at 4%, off -> on): armadillo 0.720 ->
   /// 0.709%, hinge 1.280 -> 1.078%, lever 1.643 -> 1.628%, the other six shared meshes unchanged
-  /// (session 5, before the deviation limit and the long edges, lever was 5.509 -> 5.524%: off then).
+  /// (before the deviation limit and the long edges, lever was 5.509 -> 5.524%: off then).
   bool fallback_offending_only = true;
   /// Besides moving folded elements back toward the coarse-fit blend, also slide their nodes along
   /// the dense surface toward their straight positions (four variants), and let every cluster of

@@ -184,7 +184,7 @@ struct FitOptions {
   /// points better by elevated_gain (leave-one-out residual over degree 4's). Measured medians:
   /// smooth surfaces 0.014-0.2 (bumpy sphere, torus.obj, squashed torus, loft), scans and remeshed
   /// scans 0.71-1.28 (noise sets their residuals: stanford_bunny_scan fits 3.07 -> 1.00 s, 2 threads).
-  /// Figures: bench/README.md, sessions 37-38.
+  /// Figures: the git history of bench/README.md.
   int elevated_degree = 6;
   int elevated_feature_rings = 2;
   int elevated_probes = 256;

@@ -332,7 +332,7 @@ std::array<bool, 3> curve_sides_within(const Mesh& mesh, const Topology& T, cons
 /// -0.94) or, where still valid, bend the element between its nodes: P4 converged at order 3 along
 /// every such curve. Power 1 spreads the shift as a cone from the opposite corner (not smooth
 /// there); power 3 vanishes to third order at that corner and stays within the P4 polynomials
-/// (bench/README.md, session 26). surface (may be null): the face's exact surface, which then
+/// (measured with bench/cad_sweep.py). surface (may be null): the face's exact surface, which then
 /// takes the place of the blend.
 Eigen::Vector3d curve_side_face_point(const Mesh& mesh, const Topology& T, const Wedges& W,
                                       const std::vector<LocalFit>& fits, const CurveFitResult& curves,

@@ -295,7 +295,7 @@ TEST_CASE("armadillo 4%: fewer folded snapped elements, and only their offending
 }
 
 TEST_CASE("spot 4%: folded elements that slide along the dense surface stay closer to it, valid and conforming") {
-  // Measured (session 11): the fit fallback alone left spot at 1.17% of the diagonal, its
+  // Measured: the fit fallback alone left spot at 1.17% of the diagonal, its
   // unrepaired snapped mesh at 0.56%; with the sliding candidates chosen per cluster 0.55%.
   const auto [fine, dopt, D] = decimate_shared("spot.obj", 0.04);
   LiftOptions lopt = lift_options(dopt, 4);
@@ -321,7 +321,7 @@ TEST_CASE("spot 4%: folded elements that slide along the dense surface stay clos
 }
 
 TEST_CASE("spot 4% refined to 0.5%: the worst elements split, closer to the input, valid, conforming, mapped") {
-  // Measured (session 12, bench_lift's Hausdorff): 234 faces at 0.545% of the diagonal -> 282
+  // Measured (bench_lift's Hausdorff): 234 faces at 0.545% of the diagonal -> 282
   // faces at 0.404%.
   auto [fine, dopt, D] = decimate_shared("spot.obj", 0.04);
   const LiftOptions lopt = lift_options(dopt, 4);

@@ -1219,7 +1219,7 @@ TEST_CASE("tangent junctions: the filleted box's face borders found from the tri
       borders += border;
       found += border && F.edge_feature[e];
     }
-    // The junction test's own effect: without exact fits, which since session 31 fit these boxes
+    // The junction test's own effect: without exact fits, which now fit these boxes
     // across their junctions too (share_exact_fits.hpp).
     CurveOptions o;
     const double err_exact = surface_error(curve_mesh(stl, o).mesh, dist);
@@ -1271,7 +1271,7 @@ TEST_CASE("tangent junctions: a curved face too narrow for its own fits is fitte
   const Mesh stl = filletbox_stl(0.05, r);
   CurveOptions o;
   const double err_exact = curve_filletbox(stl, r, o).second;
-  o.fit.exact_quadrics = false;  // the junctions' own effect (exact fits cross them since session 31)
+  o.fit.exact_quadrics = false;  // the junctions' own effect (exact fits cross them)
   const auto [R, err] = curve_filletbox(stl, r, o);
   o.features.junction_min_width = 0;
   const auto [narrow, err_narrow] = curve_filletbox(stl, r, o);
@@ -1296,7 +1296,7 @@ TEST_CASE("tangent junctions: a border four edges long is found from its two mid
   const Mesh stl = filletbox_stl(0.05, r);
   CurveOptions o;
   const double err_exact = curve_filletbox(stl, r, o).second;
-  o.fit.exact_quadrics = false;  // the junctions' own effect (exact fits cross them since session 31)
+  o.fit.exact_quadrics = false;  // the junctions' own effect (exact fits cross them)
   const auto [R, err] = curve_filletbox(stl, r, o);
   o.features.junction_min_edges = 3;
   const auto [three, err_three] = curve_filletbox(stl, r, o);

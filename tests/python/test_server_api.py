@@ -386,7 +386,7 @@ class ServerApi(unittest.TestCase):
         self.assertIn("attachment", h["content-disposition"])
         self.assertTrue(body.startswith(b"$MeshFormat"))
         # The daemon's defaults are the CLI's: with no options, the same bytes as `hocurve curve` (P4,
-        # equispaced nodes where Gmsh reads them; before session 8 the daemon gave P3 on Lobatto nodes).
+        # equispaced nodes where Gmsh reads them; the daemon once gave P3 on Lobatto nodes).
         st, h, body = raw(self.d.url, "POST", "/v1/curve", MESH_SPHERE, {"Content-Type": "model/stl"})
         self.assertEqual(st, 200, body[:300])
         with tempfile.TemporaryDirectory() as tmp:
