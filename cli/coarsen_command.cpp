@@ -12,7 +12,6 @@
 #include "engine/highorder/validity.hpp"
 #include "engine/highorder/write_msh.hpp"
 
-#include <tbb/global_control.h>
 
 #include <cmath>
 #include <filesystem>
@@ -159,9 +158,7 @@ int run_coarsen(int argc, char** argv) {
   const RefineOptions& ropt = o.refine;
   RedecimateOptions& rdo = o.redecimate;
   const MshOptions& msh = o.msh;
-  std::unique_ptr<tbb::global_control> threads;
-  if (o.threads > 0)
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  const auto threads = thread_limit(o.threads);
   Progress progress{o.progress};
   // One 0..1 scale for the whole command: load 0-0.1, decimation 0.1-0.4, lifting 0.4-0.9, write 0.9-1.
   lopt.progress = [&](const std::string& stage, double f) {

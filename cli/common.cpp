@@ -118,6 +118,11 @@ std::optional<Args> parse_command(const std::string& cmd, int argc, char** argv,
   return a;
 }
 
+std::unique_ptr<tbb::global_control> thread_limit(int threads) {
+  if (threads <= 0) return nullptr;
+  return std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(threads));
+}
+
 int run_guarded(const std::function<int()>& command) {
   try {
     return command();

@@ -6,7 +6,10 @@
 #include "engine/io/validate_mesh.hpp"
 
 #include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -53,6 +56,9 @@ int run_guarded(const std::function<int()>& command);
 /// (argv[0] becomes its path); returns only on failure, by throwing. Why: `hocurve volume` links
 /// Gmsh's 90 shared libraries (0.07 s and 45 MB at every start), which curve and coarsen need not.
 int exec_sibling(const char* name, char** argv);
+
+/// The TBB thread limit for --threads N (null for 0: all cores); keep it alive while working.
+std::unique_ptr<tbb::global_control> thread_limit(int threads);
 
 /// Writes JSON to a file atomically (temporary file, then rename).
 void write_json_file(const std::string& path, const nlohmann::json& j);

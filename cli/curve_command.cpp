@@ -8,7 +8,6 @@
 #include "engine/curving/stats_json.hpp"
 #include "engine/highorder/write_msh.hpp"
 
-#include <tbb/global_control.h>
 
 #include <filesystem>
 #include <iostream>
@@ -41,9 +40,7 @@ int run_curve(int argc, char** argv) {
 
   CurveOptions& opt = o.curve;
   const MshOptions& msh = o.msh;
-  std::unique_ptr<tbb::global_control> threads;
-  if (o.threads > 0)
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  const auto threads = thread_limit(o.threads);
   Progress progress{o.progress};
   // One 0..1 scale for the whole command: load 0-0.1, curving 0.1-0.9, writing 0.9-1.
   opt.progress = [&](const std::string& stage, double f) { progress(stage, 0.1 + 0.8 * f); };

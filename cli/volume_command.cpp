@@ -9,7 +9,6 @@
 #include "engine/volume/volume_mesh.hpp"
 #include "engine/volume/write_tet_msh.hpp"
 
-#include <tbb/global_control.h>
 
 #include <filesystem>
 #include <iostream>
@@ -73,9 +72,7 @@ int run_volume(int argc, char** argv) {
   msh.volume_name = a.get("volume-name", "fluid");
   if (msh.volume_name.empty() || msh.volume_name.find('"') != std::string::npos)
     throw UsageError("--volume-name must be non-empty and hold no '\"'");
-  std::unique_ptr<tbb::global_control> threads;
-  if (o.threads > 0)
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  const auto threads = thread_limit(o.threads);
   Progress progress{o.progress};
   opt.curve.progress = [&](const std::string& stage, double f) { progress(stage, 0.1 + 0.4 * f); };
 

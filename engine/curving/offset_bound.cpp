@@ -32,7 +32,7 @@ double allowed(double L, double s, const OffsetBoundOptions& opt) {
 
 }  // namespace
 
-std::vector<Eigen::Vector3d> wedge_normals(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits) {
+std::vector<Eigen::Vector3d> wedge_normals(const Wedges& W, const std::vector<LocalFit>& fits) {
   std::vector<Eigen::Vector3d> n(W.num_wedges(), Eigen::Vector3d::Zero());
   tbb::parallel_for(0, W.num_wedges(), [&](int w) {
     if (w < static_cast<int>(fits.size())) n[w] = fit_normal(fits[w]);
@@ -46,7 +46,7 @@ OffsetBoundResult bound_offsets(const Mesh& mesh, const Topology& T, const Wedge
   OffsetBoundResult R;
   const int p = hm.order, nf = mesh.num_faces(), ne = T.num_edges();
   if (!opt.enabled || p < 2) return R;
-  const std::vector<Eigen::Vector3d> wn = wedge_normals(mesh, W, fits);
+  const std::vector<Eigen::Vector3d> wn = wedge_normals(W, fits);
   auto corner_normal = [&](int f, int j) -> const Eigen::Vector3d& { return wn[W.corner_wedge(f, j)]; };
   const Eigen::VectorXd line = line_reference_nodes(p, hm.distribution);
   const Eigen::MatrixXd tri = triangle_reference_nodes(p, hm.distribution);

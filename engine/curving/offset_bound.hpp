@@ -41,7 +41,7 @@ struct OffsetBoundResult {
 
 /// Unit normal of each wedge's fitted surface at its vertex (#wedges; zero where not bounded: a
 /// cone model's apex, an exact surface).
-std::vector<Eigen::Vector3d> wedge_normals(const Mesh& mesh, const Wedges& W, const std::vector<LocalFit>& fits);
+std::vector<Eigen::Vector3d> wedge_normals(const Wedges& W, const std::vector<LocalFit>& fits);
 
 
 /// Scales the offsets (from the straight positions) of hm's edge and face nodes down to the bound
